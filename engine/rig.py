@@ -1,0 +1,99 @@
+"""The rig as data: skeleton, per-joint DOFs and limits, IK chains, bat and ball.
+
+Everything here comes from a JSON file (``assets/rig.json`` for the bundled
+batsman), never from joint names in code, so another skeleton can be mapped in.
+DOFs and limits are per Euler axis of ``R = Rz(z) Ry(y) Rx(x)``; arrays use the
+axis order (z, y, x) to match the Euler angles returned by ``quat.to_euler(q, "ZYX")``.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .skeleton import Skeleton
+
+EULER_ORDER = "ZYX"
+_AXIS_COLUMN = {"z": 0, "y": 1, "x": 2}
+
+
+@dataclass
+class Chain:
+    joints: list[int]        # root-most first; IK may rotate these
+    effector: int            # joint whose position is driven
+
+
+@dataclass
+class Rig:
+    skeleton: Skeleton
+    dof: np.ndarray          # (J, 3) bool, columns (z, y, x)
+    limits: np.ndarray       # (J, 3, 2) degrees, [lo, hi] per column
+    chains: dict[str, Chain]
+    bat: dict
+    ball_radius: float
+    wrist: int               # joint index of the lockable wrist
+    wrist_default_dof: int
+    feet: dict[str, list[int]] = field(default_factory=dict)
+    animated_joints: int = 0  # joints that carry animation (PCA parameters)
+
+    @property
+    def bat_joint(self) -> int:
+        return self.chains["left_arm"].effector
+
+    def dof_mask(self, wrist_dof: int | None = None) -> np.ndarray:
+        """DOF mask with the wrist set to 0 or 2 DOF (None: the rig's default)."""
+        wd = self.wrist_default_dof if wrist_dof is None else wrist_dof
+        if wd not in (0, 2):
+            raise ValueError(f"wrist DOF must be 0 or 2, got {wd}")
+        m = self.dof.copy()
+        m[self.wrist] = False
+        if wd == 2:
+            m[self.wrist] = self.dof[self.wrist]
+        return m
+
+
+def load_rig(path: str | Path) -> Rig:
+    """Load a rig JSON file; unknown parents or bad limits raise ``ValueError``."""
+    data = json.loads(Path(path).read_text())
+    joints = data["joints"]
+    names = [j["name"] for j in joints]
+    parents, offsets = [], []
+    J = len(joints)
+    dof = np.zeros((J, 3), bool)
+    limits = np.zeros((J, 3, 2))
+    orders, has_pos, end_sites = [], [], {}
+    for i, j in enumerate(joints):
+        p = j["parent"]
+        if p is not None and p not in names[:i]:
+            raise ValueError(f"rig: joint {j['name']!r} has unknown or later parent {p!r}")
+        parents.append(-1 if p is None else names.index(p))
+        offsets.append(j["offset"])
+        for axis in j.get("dof", ""):
+            dof[i, _AXIS_COLUMN[axis]] = True
+        for axis, (lo, hi) in j.get("limits", {}).items():
+            if lo > hi:
+                raise ValueError(f"rig: joint {j['name']!r} axis {axis}: limit {lo} > {hi}")
+            limits[i, _AXIS_COLUMN[axis]] = (lo, hi)
+        orders.append(EULER_ORDER if j.get("dof", "") or p is None else "")
+        has_pos.append(p is None)
+        if "end_site" in j:
+            end_sites[i] = np.array(j["end_site"], float)
+    skel = Skeleton(names, np.array(parents), np.array(offsets, float), orders, has_pos, end_sites)
+    chains = {}
+    for key, c in data["chains"].items():
+        idx = skel.chain(c["start"], c["end"])
+        chains[key] = Chain(idx, skel.index(c["effector"]))
+    feet = {k: [skel.index(n) for n in v] for k, v in data.get("feet", {}).items()}
+    return Rig(skel, dof, limits, chains, data["bat"], data["ball"]["diameter"] / 2,
+               skel.index(data["wrist"]["joint"]), int(data["wrist"]["default_dof"]), feet,
+               int(data.get("animated_joints", J)))
+
+
+def assets_dir() -> Path:
+    return Path(__file__).resolve().parent.parent / "assets"
+
+
+def default_rig() -> Rig:
+    return load_rig(assets_dir() / "rig.json")

@@ -1,0 +1,105 @@
+"""Write assets/rig.json: the bundled batsman's skeleton, DOFs, limits, IK chains
+and bat/ball dimensions. Deterministic; run `python -m tools.make_rig`.
+
+Offsets are in cm, in a T-pose facing +Z with the left side toward +X (joint
+frames world-aligned, as in BVH). Limits are Euler degrees for
+R = Rz(z) Ry(y) Rx(x); in the arms x is the twist about the bone.
+"""
+import json
+from pathlib import Path
+
+BALL_DIAMETER = 7.2
+BAT = {
+    "length": 86.0, "handle_length": 30.0, "blade_width": 10.8,
+    "blade_thickness": 6.0, "edge_thickness": 3.8,
+    # grip point of the left (top) hand, in LeftHand's frame: the palm centre
+    "left_grip": [8.0, -2.0, 0.0],
+    "grip_to_top": 5.0,               # handle top lies 5 cm beyond the left grip
+    "axis": [0.0, 0.0, -1.0],         # handle -> toe, in LeftHand's frame
+    "face_normal": [0.0, 1.0, 0.0],   # out of the face, in LeftHand's frame
+    "right_grip_below_left": 11.0,    # cm further down the handle
+}
+
+
+def joint(name, parent, offset, dof="", limits=None, end=None):
+    j = {"name": name, "parent": parent, "offset": offset, "dof": dof,
+         "limits": limits or {}}
+    if end is not None:
+        j["end_site"] = end
+    return j
+
+
+def side(prefix, s):
+    """Arm and leg joints; s = +1 for left (+X), -1 for right."""
+    def lim(z, y, x):
+        # mirror: z and y flip sign for the right side, x (twist) too
+        f = (lambda r: r) if s > 0 else (lambda r: [-r[1], -r[0]])
+        return {k: f(v) for k, v in (("z", z), ("y", y), ("x", x)) if v is not None}
+    L = prefix
+    return [
+        joint(f"{L}Shoulder", "Spine2", [3.0 * s, 12.0, 0.0], "zy", lim([-25, 35], [-30, 30], None)),
+        joint(f"{L}Arm", f"{L}Shoulder", [15.0 * s, 0.0, 0.0], "zyx", lim([-110, 100], [-160, 70], [-90, 90])),
+        joint(f"{L}ArmRoll", f"{L}Arm", [14.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 90])),
+        joint(f"{L}ForeArm", f"{L}ArmRoll", [14.0 * s, 0.0, 0.0], "y", lim(None, [-150, 0], None)),
+        joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-110, 110])),
+        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-75, 75], [-50, 50], None),
+              end=[9.0 * s, 0.0, 0.0]),
+    ]
+
+
+def leg(prefix, s):
+    def lim(z, y, x):
+        f = (lambda r: r) if s > 0 else (lambda r: [-r[1], -r[0]])
+        out = {}
+        if z is not None: out["z"] = f(z)
+        if y is not None: out["y"] = f(y)
+        if x is not None: out["x"] = x          # flexion is not mirrored
+        return out
+    L = prefix
+    return [
+        joint(f"{L}UpLeg", "Hips", [9.0 * s, -6.0, 0.0], "zyx", lim([-20, 60], [-70, 70], [-120, 45])),
+        joint(f"{L}Leg", f"{L}UpLeg", [0.0, -44.0, 0.0], "x", lim(None, None, [0, 150])),
+        joint(f"{L}Foot", f"{L}Leg", [0.0, -41.0, 0.0], "zyx", lim([-35, 35], [-35, 35], [-50, 55])),
+        joint(f"{L}ToeBase", f"{L}Foot", [0.0, -6.0, 13.0], "x", lim(None, None, [-60, 30]),
+              end=[0.0, 0.0, 7.0]),
+    ]
+
+
+def rig():
+    spine = {"z": [-45, 45], "y": [-50, 50], "x": [-40, 60]}
+    joints = [
+        joint("Hips", None, [0.0, 97.0, 0.0], "zyx", {"z": [-180, 180], "y": [-180, 180], "x": [-180, 180]}),
+        joint("Spine", "Hips", [0.0, 10.0, 0.0], "zyx", spine),
+        joint("Spine1", "Spine", [0.0, 12.0, 0.0], "zyx", spine),
+        joint("Spine2", "Spine1", [0.0, 12.0, 0.0], "zyx", spine),
+        joint("Neck", "Spine2", [0.0, 17.0, 0.0], "zyx", {"z": [-40, 40], "y": [-70, 70], "x": [-40, 50]}),
+        joint("Head", "Neck", [0.0, 10.0, 2.0], "zyx", {"z": [-40, 40], "y": [-70, 70], "x": [-40, 50]},
+              end=[0.0, 19.0, 0.0]),
+    ]
+    joints += side("Left", 1) + side("Right", -1) + leg("Left", 1) + leg("Right", -1)
+    b = BAT
+    face_z = -(b["length"] - b["grip_to_top"] - (b["length"] - b["handle_length"]) / 2)
+    face_y = b["left_grip"][1] + b["blade_thickness"] / 2 + BALL_DIAMETER / 2
+    joints.append(joint("Bat", "LeftHand", [b["left_grip"][0], face_y, face_z], ""))
+    return {
+        "units": "cm",
+        "euler_order": "ZYX",
+        "joints": joints,
+        "animated_joints": 26,
+        "chains": {
+            "left_arm": {"start": "Spine", "end": "LeftHand", "effector": "Bat"},
+            "right_arm": {"start": "RightShoulder", "end": "RightHand", "effector": "RightHand"},
+            "left_leg": {"start": "LeftUpLeg", "end": "LeftFoot", "effector": "LeftFoot"},
+            "right_leg": {"start": "RightUpLeg", "end": "RightFoot", "effector": "RightFoot"},
+        },
+        "wrist": {"joint": "LeftHand", "default_dof": 0},
+        "feet": {"left": ["LeftFoot", "LeftToeBase"], "right": ["RightFoot", "RightToeBase"]},
+        "bat": b,
+        "ball": {"diameter": BALL_DIAMETER},
+    }
+
+
+if __name__ == "__main__":
+    out = Path(__file__).resolve().parent.parent / "assets" / "rig.json"
+    out.write_text(json.dumps(rig(), indent=1) + "\n")
+    print(f"wrote {out}")
