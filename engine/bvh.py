@@ -246,6 +246,9 @@ def format_bvh(skeleton: Skeleton, clip: Clip, euler: np.ndarray | None = None) 
         out.append(f"{ind}}}")
 
     emit(0, 0)
+    # columns follow the file's depth-first joint order, not the array order
+    dfs = [skeleton.names.index(line.split()[1]) for line in out
+           if line.lstrip().startswith(("ROOT ", "JOINT "))]
     F = clip.num_frames
     out += ["MOTION", f"Frames: {F}", f"Frame Time: {1.0 / clip.fps:.8f}"]
     cols = []
@@ -254,7 +257,7 @@ def format_bvh(skeleton: Skeleton, clip: Clip, euler: np.ndarray | None = None) 
         translations = np.broadcast_to(skeleton.offsets, (F, J, 3)).copy()
     translations = translations.copy()
     translations[:, 0] = clip.root_positions
-    for j in range(J):
+    for j in dfs:
         if skeleton.position_channels[j]:
             cols.append(translations[:, j])
         order = skeleton.channel_orders[j]

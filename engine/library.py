@@ -10,7 +10,7 @@ import numpy as np
 
 from . import bvh
 from .rig import Rig, assets_dir, default_rig
-from .skeleton import Clip, Skeleton, clip_fk
+from .skeleton import Clip, Skeleton, clip_fk, reorder_joints
 
 
 @dataclass
@@ -38,11 +38,16 @@ class Shot:
         return self.clip.num_frames
 
 
-def check_skeleton_matches(rig: Rig, skeleton: Skeleton, where: str) -> None:
-    if skeleton.names != rig.skeleton.names:
+def conform_to_rig(rig: Rig, skeleton: Skeleton, clip: Clip, where: str) -> tuple[Skeleton, Clip]:
+    """The clip with its joints in the rig's order; a clear error if they differ."""
+    if sorted(skeleton.names) != sorted(rig.skeleton.names):
         missing = sorted(set(rig.skeleton.names) - set(skeleton.names))
-        raise ValueError(f"{where}: joints do not match the rig" +
-                         (f" (missing {', '.join(missing[:3])})" if missing else ""))
+        extra = sorted(set(skeleton.names) - set(rig.skeleton.names))
+        detail = (f"missing {', '.join(missing[:3])}" if missing else f"unknown {', '.join(extra[:3])}")
+        raise ValueError(f"{where}: joints do not match the rig ({detail})")
+    if skeleton.names != rig.skeleton.names:
+        skeleton, clip = reorder_joints(skeleton, clip, rig.skeleton.names)
+    return skeleton, clip
 
 
 def load_library(manifest: str | Path | None = None, rig: Rig | None = None) -> list[Shot]:
@@ -54,7 +59,7 @@ def load_library(manifest: str | Path | None = None, rig: Rig | None = None) -> 
     for e in entries:
         path = manifest.parent / e["file"]
         skel, clip = bvh.read(path)
-        check_skeleton_matches(rig, skel, str(path))
+        skel, clip = conform_to_rig(rig, skel, clip, str(path))
         h = int(e["hit_frame"])
         if not 0 <= h < clip.num_frames:
             raise ValueError(f"{path}: hit frame {h} outside 0..{clip.num_frames - 1}")

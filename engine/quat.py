@@ -143,7 +143,8 @@ def to_euler(q: np.ndarray, order: str = "ZYX") -> np.ndarray:
     # R = R_i(a) R_j(b) R_k(c); sign of the permutation decides the signs.
     sign = 1.0 if (j - i) % 3 == 1 else -1.0
     sb = np.clip(sign * m[..., i, k], -1.0, 1.0)
-    b = np.arcsin(sb)
+    # atan2 keeps full precision near +/-90 degrees, where arcsin does not.
+    b = np.arctan2(sb, np.hypot(m[..., i, i], m[..., i, j]))
     a = np.arctan2(-sign * m[..., j, k], m[..., k, k])
     c = np.arctan2(-sign * m[..., i, j], m[..., i, i])
     # Gimbal lock: only a +/- c is defined; put it all into a.
@@ -231,5 +232,6 @@ def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:
 
 def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Rotation angle in degrees between two orientations ``(..., 4)``."""
-    d = np.abs(np.sum(normalize(a) * normalize(b), axis=-1))
-    return np.degrees(2 * np.arccos(np.clip(d, 0.0, 1.0)))
+    rel = mul(conjugate(normalize(a)), normalize(b))
+    # atan2 of the relative rotation stays exact for tiny angles (arccos does not)
+    return np.degrees(2 * np.arctan2(np.linalg.norm(rel[..., 1:], axis=-1), np.abs(rel[..., 0])))

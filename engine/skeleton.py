@@ -138,3 +138,23 @@ def skinning_matrices(global_rotations: np.ndarray, global_positions: np.ndarray
     M[..., :3, 3] = t
     M[..., 3, 3] = 1.0
     return M
+
+
+def reorder_joints(skeleton: Skeleton, clip: Clip, names: list[str]) -> tuple[Skeleton, Clip]:
+    """The same skeleton and clip with joints permuted into the order of ``names``.
+
+    BVH files list joints depth first; a rig may list them in another order
+    (e.g. helper joints last). Parents must still precede children.
+    """
+    if sorted(names) != sorted(skeleton.names):
+        raise ValueError("reorder_joints: joint names differ")
+    perm = [skeleton.names.index(n) for n in names]
+    inv = {old: new for new, old in enumerate(perm)}
+    parents = np.array([-1 if skeleton.parents[o] < 0 else inv[int(skeleton.parents[o])] for o in perm])
+    skel = Skeleton(list(names), parents, skeleton.offsets[perm],
+                    [skeleton.channel_orders[o] for o in perm],
+                    [skeleton.position_channels[o] for o in perm],
+                    {inv[j]: v for j, v in skeleton.end_sites.items()})
+    out = Clip(clip.root_positions.copy(), clip.local_rotations[:, perm].copy(), clip.fps,
+               None if clip.local_positions is None else clip.local_positions[:, perm].copy())
+    return skel, out
