@@ -1,0 +1,148 @@
+"""PCA of a shot: reconstruction, projection, standardisation, style error."""
+import numpy as np
+import pytest
+
+from engine import pca as pcam
+from engine import quat
+from engine.skeleton import Clip
+
+
+def smooth_random_clip(rig, frames=90, seed=0, amplitude=0.6):
+    """A smooth random motion inside the rig's limits (sums of slow sinusoids)."""
+    rng = np.random.default_rng(seed)
+    J = rig.skeleton.num_joints
+    t = np.linspace(0, 1, frames)[:, None]
+    euler = np.zeros((frames, J, 3))
+    for j in range(rig.animated_joints):
+        for c in range(3):
+            if not rig.dof[j, c]:
+                continue
+            lo, hi = rig.limits[j, c]
+            mid, half = (lo + hi) / 2, (hi - lo) / 2 * amplitude
+            w = rng.uniform(0.5, 2.5, 3)
+            ph = rng.uniform(0, 2 * np.pi, 3)
+            a = rng.uniform(0.2, 1, 3)
+            wave = (a * np.sin(2 * np.pi * w * t + ph)).sum(axis=1) / a.sum()
+            euler[:, j, c] = np.clip(mid + half * wave, lo, hi)
+    rot = quat.from_euler(euler, "ZYX")
+    rot[:, rig.animated_joints:] = quat.identity()
+    root = np.stack([10 * np.sin(3 * t[:, 0]), 97 - 8 * t[:, 0] ** 2, -20 * t[:, 0]], axis=1)
+    # random storage signs: PCA must make them continuous itself
+    flip = rng.random((frames, J)) < 0.3
+    rot = np.where(flip[..., None], -rot, rot)
+    return Clip(root, rot, 30.0)
+
+
+@pytest.fixture(scope="module")
+def clip(rig):
+    return smooth_random_clip(rig)
+
+
+@pytest.fixture(scope="module")
+def body(rig, clip):
+    return pcam.fit_clip(rig, clip, "body")
+
+
+def _same_rotation(a, b, tol):
+    return np.all(np.abs(np.abs(np.sum(a * b, axis=-1)) - 1) < tol)
+
+
+def test_parameter_count_and_explained(rig, body):
+    assert body.num_params == 3 + 4 * rig.animated_joints == 107
+    assert body.loadings.shape == (107, body.num_components)
+    assert np.isclose(body.explained.sum(), 1.0)
+    assert np.all(np.diff(body.explained) <= 1e-12)
+    assert np.all(np.diff(body.cumulative) >= -1e-12)
+    # orthonormal loadings
+    assert np.allclose(body.loadings.T @ body.loadings, np.eye(body.num_components), atol=1e-9)
+
+
+def test_full_reconstruction_returns_source(rig, clip, body):
+    X = pcam.shot_parameters(clip.root_positions, clip.local_rotations, pcam.body_joints(rig))
+    assert np.max(np.abs(body.reconstruct(body.scores) - X)) < 1e-6
+    root, rot = body.pose_from_scores(body.scores)
+    assert np.max(np.abs(root - clip.root_positions)) < 1e-6
+    assert _same_rotation(rot, clip.local_rotations, 1e-6)
+    assert np.allclose(rot[:, rig.bat_joint], [1, 0, 0, 0])
+
+
+def test_error_falls_monotonically(rig, clip, body):
+    X = pcam.shot_parameters(clip.root_positions, clip.local_rotations, pcam.body_joints(rig))
+    errs = [np.sqrt(np.mean((body.reconstruct(body.scores, k) - X) ** 2))
+            for k in range(0, body.num_components + 1)]
+    assert all(b <= a + 1e-9 for a, b in zip(errs, errs[1:]))
+    assert errs[0] > errs[3] > errs[-1]
+    assert errs[-1] < 1e-6
+
+
+def test_projecting_source_gives_its_scores(clip, body):
+    s = body.project_pose(clip.root_positions, clip.local_rotations)
+    assert np.allclose(s, body.scores, atol=1e-9)
+    # single poses project the same way
+    f = 40
+    s1 = body.project_pose(clip.root_positions[f], clip.local_rotations[f], continuous=False)
+    assert np.allclose(s1, body.scores[f], atol=1e-9)
+
+
+def test_style_rmse_of_shot_against_itself_is_zero(rig, clip, body):
+    assert pcam.style_error(body, clip.root_positions, clip.local_rotations) < 1e-9
+    upper = pcam.fit_clip(rig, clip, "upper")
+    assert pcam.style_error(upper, clip.root_positions, clip.local_rotations) < 1e-9
+    # a changed clip has a positive error; sign flips of stored quaternions do not matter
+    other = clip.copy()
+    other.local_rotations = -other.local_rotations
+    assert pcam.style_error(body, other.root_positions, other.local_rotations) < 1e-9
+    other.local_rotations[:, 7] = quat.mul(other.local_rotations[:, 7], quat.from_euler([0, 0, 20]))
+    assert pcam.style_error(body, other.root_positions, other.local_rotations) > 1e-3
+
+
+def test_style_rmse_formula():
+    a = np.zeros((4, 3))
+    b = np.zeros((4, 3))
+    b[0] = (3, 4, 0)            # distance 5 in one frame of four
+    assert np.isclose(pcam.style_rmse(a, b), np.sqrt(25 / 4))
+
+
+def test_constant_parameters_do_not_produce_nan(rig, clip):
+    still = clip.copy()
+    still.local_rotations[:, 3] = quat.from_euler([10, 20, 30])   # a frozen joint
+    still.root_positions[:, 1] = 95.0                             # constant height
+    p = pcam.fit_clip(rig, still, "body")
+    for arr in (p.mean, p.sd, p.loadings, p.scores, p.explained):
+        assert np.all(np.isfinite(arr))
+    root, rot = p.pose_from_scores(p.scores[:, :3])
+    assert np.all(np.isfinite(root)) and np.all(np.isfinite(rot))
+    assert np.allclose(root[:, 1], 95.0)
+    assert _same_rotation(rot[:, 3], quat.from_euler([10, 20, 30]), 1e-9)
+    # a completely still clip: all parameters constant
+    frozen = Clip(np.repeat(clip.root_positions[:1], 10, 0), np.repeat(clip.local_rotations[:1], 10, 0))
+    p = pcam.fit_clip(rig, frozen, "body")
+    assert np.all(np.isfinite(p.scores)) and np.all(np.isfinite(p.explained))
+    root, rot = p.pose_from_scores(np.zeros(2))
+    assert np.allclose(root, frozen.root_positions[0])
+
+
+def test_upper_body_part(rig, clip):
+    up = pcam.fit_clip(rig, clip, "upper")
+    names = [rig.skeleton.names[j] for j in up.joints]
+    assert "Hips" not in names and "LeftUpLeg" not in names and "Bat" not in names
+    assert "Spine" in names and "Head" in names and "RightHand" in names and "LeftHand" in names
+    assert up.num_params == 4 * len(names)
+    root, rot = up.pose_from_scores(np.zeros(3))
+    assert np.allclose(root, clip.root_positions.mean(0))
+    assert np.allclose(np.linalg.norm(rot, axis=-1), 1)
+
+
+def test_single_and_batched_poses_agree(body):
+    s = body.scores[:5, :2]
+    root, rot = body.pose_from_scores(s)
+    r1, q1 = body.pose_from_scores(s[3])
+    assert root.shape == (5, 3) and rot.shape[0] == 5
+    assert np.allclose(r1, root[3]) and np.allclose(q1, rot[3])
+
+
+def test_multi_shot_space(rig, clip):
+    other = smooth_random_clip(rig, 60, seed=5)
+    p = pcam.fit_clips(rig, [clip, other])
+    assert p.scores.shape[0] == clip.num_frames + other.num_frames
+    assert np.isclose(p.explained.sum(), 1)
