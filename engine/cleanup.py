@@ -1,0 +1,242 @@
+"""Clean-up of synthesised animations (dissertation 3.3).
+
+Two independent fixes, each vectorised over frames:
+
+* the right hand is put back on the bat handle: its position and orientation
+  relative to the left hand are taken from the source shot and reached by a
+  CCD solve of the right-arm chain (RightShoulder .. RightHand), DOFs and
+  limits respected, then the hand is turned to the source's relative
+  orientation (within its limits);
+* planted feet stay planted: where the source's foot is planted (slow and
+  low), two-bone leg IK (hip swing + knee hinge) brings the ankle to the
+  source's ankle position and the foot to its orientation, with a short blend
+  at the plant's ends so nothing pops.
+
+Each returns the remaining error so the caller can show it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import quat
+from .rig import Rig
+from .skeleton import Clip, Skeleton, clip_fk, local_translations
+
+PLANT_SPEED = 15.0     # cm/s: slower than this counts as planted ...
+PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
+PLANT_BLEND = 4        # frames over which a plant fades in and out
+
+
+@dataclass
+class CleanupResult:
+    clip: Clip
+    hand_error_cm: np.ndarray | None = None     # (F,) right hand vs its place on the handle
+    hand_error_deg: np.ndarray | None = None    # (F,)
+    foot_error_cm: dict = field(default_factory=dict)   # side -> (F,) ankle error, 0 where not planted
+    planted: dict = field(default_factory=dict)         # side -> (F,) bool
+
+    def summary(self) -> dict:
+        out = {}
+        if self.hand_error_cm is not None:
+            out["hand_error_cm_max"] = float(self.hand_error_cm.max())
+            out["hand_error_deg_max"] = float(self.hand_error_deg.max())
+        for side, e in self.foot_error_cm.items():
+            out[f"{side}_foot_error_cm_max"] = float(e.max()) if e.size else 0.0
+            out[f"{side}_foot_planted_frames"] = int(self.planted[side].sum())
+        return out
+
+
+def frame_map(frames: int, source_frames: int) -> np.ndarray:
+    """(frames,) source frame for each frame, by stretching time linearly."""
+    if frames == 1:
+        return np.zeros(1, dtype=np.int64)
+    return np.rint(np.arange(frames) * (source_frames - 1) / (frames - 1)).astype(np.int64)
+
+
+def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bool = True,
+            plant_feet: bool = True, source_frames: np.ndarray | None = None) -> CleanupResult:
+    """Clean ``clip`` (e.g. synthesised from ``source``'s PC space).
+
+    ``source_frames (F,)``: the source frame each frame corresponds to
+    (default: linear time stretch).
+    """
+    out = clip.copy()
+    m = frame_map(clip.num_frames, source.num_frames) if source_frames is None else np.asarray(source_frames)
+    src_rot, src_pos = clip_fk(skeleton, source)
+    res = CleanupResult(out)
+    if plant_feet:
+        # feet first: the hand fix does not move the legs, the leg fix moves nothing above the hips
+        for side in ("left", "right"):
+            err, planted = plant_foot(rig, skeleton, out, src_rot, src_pos, source.fps, side, m)
+            res.foot_error_cm[side] = err
+            res.planted[side] = planted
+    if fix_hand:
+        res.hand_error_cm, res.hand_error_deg = reattach_right_hand(rig, skeleton, out, src_rot[m], src_pos[m])
+    return res
+
+
+# ----------------------------------------------------------------- right hand
+def right_hand_targets(rig: Rig, clip_global_rot, clip_global_pos, src_global_rot, src_global_pos):
+    """Right-hand target position ``(F, 3)`` and orientation ``(F, 4)``: its pose
+    relative to the left hand in the source, applied to the clip's left hand."""
+    lh = rig.skeleton.parents[rig.bat_joint]        # the bat's parent is the top hand
+    rh = rig.chains["right_arm"].effector
+    inv_src = quat.conjugate(src_global_rot[:, lh])
+    rel_pos = quat.rotate(inv_src, src_global_pos[:, rh] - src_global_pos[:, lh])
+    rel_rot = quat.mul(inv_src, src_global_rot[:, rh])
+    pos = clip_global_pos[:, lh] + quat.rotate(clip_global_rot[:, lh], rel_pos)
+    rot = quat.mul(clip_global_rot[:, lh], rel_rot)
+    return pos, rot
+
+
+def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos,
+                        iterations: int = 60, tolerance: float = 0.01):
+    """Solve the right arm in place in ``clip`` so the right hand grips the handle
+    where the source's does. Returns the remaining (F,) errors in cm and degrees."""
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    t_pos, t_rot = right_hand_targets(rig, g_rot, g_pos, src_global_rot, src_global_pos)
+    chain = rig.chains["right_arm"]
+    hand = chain.effector
+    solve_chain_position(rig, skeleton, clip, chain.joints, hand, t_pos, g_rot, g_pos,
+                         iterations, tolerance)
+    # orientation: the hand's local rotation that gives the target, within its limits
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    parent = skeleton.parents[hand]
+    local = quat.mul(quat.conjugate(g_rot[:, parent]), t_rot)
+    clip.local_rotations[:, hand] = _constrain(rig, hand, local, clip.local_rotations[:, hand])
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    err_cm = np.linalg.norm(g_pos[:, hand] - t_pos, axis=-1)
+    err_deg = quat.angle_between(g_rot[:, hand], t_rot)
+    return err_cm, err_deg
+
+
+def _constrain(rig: Rig, j: int, local: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Local rotations ``(F, 4)`` of joint j with locked axes put back to ``reference``'s
+    and free axes clamped to the limits (widened to include the reference, so the
+    constraint never makes a pose worse than it was)."""
+    e = quat.to_euler(local, "ZYX")
+    ref = quat.to_euler(reference, "ZYX")
+    free = rig.dof[j]
+    e = np.where(free, e, ref)
+    lo = np.minimum(rig.limits[j, :, 0], ref)
+    hi = np.maximum(rig.limits[j, :, 1], ref)
+    e = np.where(free, np.clip(e, lo, hi), e)
+    return quat.from_euler(e, "ZYX")
+
+
+def solve_chain_position(rig: Rig, skeleton: Skeleton, clip: Clip, joints: list[int], effector: int,
+                         target: np.ndarray, g_rot=None, g_pos=None, iterations: int = 60,
+                         tolerance: float = 0.01) -> np.ndarray:
+    """Minimal CCD (position only) on a chain for every frame at once, in place.
+
+    ``joints`` root-most first; joints below the chain's root are moved only
+    through it. Returns the remaining (F,) error in cm.
+    """
+    if g_rot is None:
+        g_rot, g_pos = clip_fk(skeleton, clip)
+    t = local_translations(skeleton, clip)
+    path = skeleton.chain(skeleton.names[joints[0]], skeleton.names[effector])
+    top = skeleton.parents[path[0]]
+    base_rot, base_pos = g_rot[:, top], g_pos[:, top]
+    local = clip.local_rotations
+    movable = [j for j in joints if j != effector and rig.dof[j].any()]
+    reference = {j: local[:, j].copy() for j in movable}
+
+    def chain_fk():
+        r, p = base_rot, base_pos
+        rots, poss = {}, {}
+        for j in path:
+            p = p + quat.rotate(r, t[:, j])
+            r = quat.mul(r, local[:, j])
+            rots[j], poss[j] = r, p
+        return rots, poss
+
+    for _ in range(iterations):
+        rots, poss = chain_fk()
+        err = np.linalg.norm(poss[effector] - target, axis=-1)
+        if err.max() < tolerance:
+            break
+        for j in reversed(movable):
+            rots, poss = chain_fk()
+            parent_rot = rots[skeleton.parents[j]] if skeleton.parents[j] in rots else base_rot
+            r = quat.between(poss[effector] - poss[j], target - poss[j])
+            # new local = parent^-1 * r * global_j
+            new = quat.mul(quat.conjugate(parent_rot), quat.mul(r, rots[j]))
+            local[:, j] = _constrain(rig, j, quat.normalize(new), reference[j])
+    _, poss = chain_fk()
+    return np.linalg.norm(poss[effector] - target, axis=-1)
+
+
+# ---------------------------------------------------------------------- feet
+def planted_frames(foot_positions: np.ndarray, fps: float) -> np.ndarray:
+    """(F,) bool: the foot ``(F, 3)`` is slow and near its lowest height."""
+    F = len(foot_positions)
+    if F < 2:
+        return np.ones(F, bool)
+    speed = np.linalg.norm(np.gradient(foot_positions, axis=0), axis=1) * fps
+    low = foot_positions[:, 1] < foot_positions[:, 1].min() + PLANT_HEIGHT
+    return (speed < PLANT_SPEED) & low
+
+
+def _plant_weight(planted: np.ndarray, blend: int = PLANT_BLEND) -> np.ndarray:
+    """(F,) 1 inside plants, easing to 0 over ``blend`` frames outside them."""
+    F = len(planted)
+    idx = np.flatnonzero(planted)
+    if idx.size == 0:
+        return np.zeros(F)
+    f = np.arange(F)
+    # distance in frames to the nearest planted frame
+    pos = np.searchsorted(idx, f)
+    left = np.abs(f - idx[np.clip(pos - 1, 0, idx.size - 1)])
+    right = np.abs(idx[np.clip(pos, 0, idx.size - 1)] - f)
+    dist = np.minimum(left, right)
+    x = np.clip(1 - dist / (blend + 1), 0, 1)
+    return x * x * (3 - 2 * x)
+
+
+def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
+               side: str, source_frames: np.ndarray):
+    """Two-bone IK of one leg, in place, toward the source's ankle in its planted frames.
+
+    Returns ``(error (F,), planted (F,))``: the remaining ankle error in cm
+    (0 where not planted) and the planted frames."""
+    chain = rig.chains[f"{side}_leg"]
+    hip, knee, ankle = chain.joints[0], chain.joints[1], chain.effector
+    src_planted = planted_frames(src_global_pos[:, ankle], fps)
+    planted = src_planted[source_frames]
+    w = _plant_weight(planted)
+    F = clip.num_frames
+    if not w.any():
+        return np.zeros(F), planted
+    sel = w > 0
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    t_pos = src_global_pos[source_frames, ankle]
+    t_rot = src_global_rot[source_frames, ankle]
+    target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
+    target_rot = quat.slerp(g_rot[:, ankle], t_rot, w)
+    local = clip.local_rotations
+    a = np.linalg.norm(skeleton.offsets[knee])
+    b = np.linalg.norm(skeleton.offsets[ankle])
+    H = g_pos[sel, hip]
+    d = np.clip(np.linalg.norm(target[sel] - H, axis=-1), abs(a - b) + 1e-3, a + b - 1e-3)
+    # knee: a hinge about its local x; interior angle from the law of cosines
+    interior = np.arccos(np.clip((a * a + b * b - d * d) / (2 * a * b), -1, 1))
+    lo, hi = rig.limits[knee, 2]
+    sign = 1.0 if hi >= -lo else -1.0
+    flex = np.clip(sign * np.degrees(np.pi - interior), lo, hi)
+    knee_euler = np.zeros((sel.sum(), 3))
+    knee_euler[:, 2] = flex
+    local[sel, knee] = quat.from_euler(knee_euler, "ZYX")
+    # hip: swing the whole leg so the ankle points at the target
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    swing = quat.between(g_pos[sel, ankle] - H, target[sel] - H)
+    new_hip_global = quat.mul(swing, g_rot[sel, hip])
+    local[sel, hip] = quat.mul(quat.conjugate(g_rot[sel, skeleton.parents[hip]]), new_hip_global)
+    # foot: the target orientation in the new shin frame
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    local[sel, ankle] = quat.mul(quat.conjugate(g_rot[sel, knee]), target_rot[sel])
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    err = np.where(planted, np.linalg.norm(g_pos[:, ankle] - t_pos, axis=-1), 0.0)
+    return err, planted

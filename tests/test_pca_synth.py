@@ -1,0 +1,185 @@
+"""Synthesis from PC-space paths, presets, sections, BVH export, clean-up."""
+import numpy as np
+import pytest
+
+from engine import bvh, cleanup, quat, synth
+from engine import pca as pcam
+from engine.library import conform_to_rig
+from engine.skeleton import Clip, clip_fk
+from test_pca import smooth_random_clip
+
+
+@pytest.fixture(scope="module")
+def clip(rig):
+    return smooth_random_clip(rig, 80, seed=3)
+
+
+@pytest.fixture(scope="module")
+def body(rig, clip):
+    return pcam.fit_clip(rig, clip, "body")
+
+
+@pytest.fixture(scope="module")
+def sections(rig, clip):
+    _, pos = clip_fk(rig.skeleton, clip)
+    return synth.shot_sections(pos[:, rig.bat_joint], 50)
+
+
+def test_resample_stretches_and_follows_timestamps():
+    pts = np.array([[0.0, 0.0], [1.0, 2.0], [3.0, 2.0]])
+    p = synth.resample_path(pts, frames=5)
+    assert p.shape == (5, 2) and np.allclose(p[0], pts[0]) and np.allclose(p[-1], pts[-1])
+    assert np.allclose(p[2], pts[1])
+    # timestamps: 0.5 s at 30 fps -> 16 frames, linear in time
+    q = synth.resample_path(pts, times=np.array([0.0, 0.1, 0.5]), fps=30)
+    assert q.shape == (16, 2) and np.allclose(q[3], pts[1]) and np.allclose(q[-1], pts[-1])
+    with pytest.raises(ValueError):
+        synth.resample_path(pts, times=np.array([0.0, 0.2, 0.1]))
+    with pytest.raises(ValueError):
+        synth.resample_path(np.array([[0.0, np.nan]]), frames=3)
+
+
+def test_sections_split_at_backlift_and_stroke_end(sections, clip):
+    lab = sections.labels
+    assert lab.shape == (clip.num_frames,)
+    assert np.all(np.diff(lab) >= 0) and lab[0] == 0
+    assert lab[sections.backlift] == 1 and sections.backlift < sections.hit_frame <= sections.stroke_end
+    segs = sections.segments(np.arange(clip.num_frames)[:, None].astype(float))
+    assert [s[0] for s in segs] == sorted({int(v) for v in lab})
+    # consecutive segments share their end points, and cover every frame
+    for (_, a), (_, b) in zip(segs, segs[1:]):
+        assert a[-1, 0] == b[0, 0]
+    assert segs[0][1][0, 0] == 0 and segs[-1][1][-1, 0] == clip.num_frames - 1
+
+
+@pytest.mark.parametrize("preset,amount", [("exaggerated", 0.5), ("toned_down", 0.3), ("exaggerated", 0.0)])
+def test_scaling_presets_have_the_stated_radius_ratio(body, sections, preset, amount):
+    path = synth.source_path(body)
+    new = synth.preset_path(path, preset, amount, sections)
+    c = path.mean(axis=0)
+    stroke = (sections.labels == 1)
+    r0 = np.linalg.norm(path[stroke] - c, axis=1)
+    r1 = np.linalg.norm(new[stroke] - c, axis=1)
+    ratio = synth.preset_factor(preset, amount)
+    assert np.allclose(r1, r0 * ratio)
+    # directions about the centre are unchanged; the stance and rest pose are kept
+    assert np.allclose(new[0], path[0]) and np.allclose(new[-1], path[-1])
+    # between, the radius ratio lies between 1 and the preset's ratio
+    rr = np.linalg.norm(new - c, axis=1) / np.maximum(np.linalg.norm(path - c, axis=1), 1e-12)
+    assert np.all(rr >= min(1, ratio) - 1e-9) and np.all(rr <= max(1, ratio) + 1e-9)
+
+
+def test_scaling_without_sections_keeps_ratio_in_the_middle(body):
+    path = synth.source_path(body)
+    new = synth.preset_path(path, "exaggerated", 1.0)
+    c = path.mean(axis=0)
+    mid = slice(len(path) // 3, 2 * len(path) // 3)
+    assert np.allclose(new[mid] - c, 2 * (path[mid] - c))
+
+
+def test_aborted_preset_leaves_the_path_and_goes_straight_to_rest(body, sections):
+    path = synth.source_path(body)
+    a = 30
+    new = synth.preset_path(path, "aborted", abort_frame=a)
+    assert np.allclose(new[:a + 1], path[:a + 1]) and np.allclose(new[-1], path[-1])
+    d = path[-1] - path[a]
+    rel = new[a:] - path[a]
+    cross = rel[:, 0] * d[1] - rel[:, 1] * d[0]          # on the straight line
+    assert np.allclose(cross, 0, atol=1e-9)
+    # amount picks the frame between backlift and hit
+    b = synth.preset_path(path, "aborted", 0.0, sections)
+    assert np.allclose(b[:sections.backlift + 1], path[:sections.backlift + 1])
+    with pytest.raises(ValueError):
+        synth.preset_path(path, "aborted", abort_frame=10_000)
+    with pytest.raises(ValueError):
+        synth.preset_path(path, "toned_down", 1.5)
+    with pytest.raises(ValueError):
+        synth.preset_path(path, "sideways", 0.5)
+
+
+def test_synthesis_on_the_source_path_reproduces_the_2pc_reconstruction(rig, body, clip):
+    anim = synth.synthesise(body, synth.source_path(body))
+    assert anim.num_frames == clip.num_frames
+    root, rot = body.pose_from_scores(body.scores[:, :2])
+    assert np.allclose(anim.root_positions, root) and np.allclose(anim.local_rotations, rot)
+    assert np.allclose(np.linalg.norm(anim.local_rotations, axis=-1), 1)
+    assert np.allclose(anim.local_rotations[:, rig.bat_joint], [1, 0, 0, 0])
+
+
+def test_synthesised_animation_round_trips_through_bvh(rig, body, sections, tmp_path):
+    path = synth.preset_path(synth.source_path(body), "exaggerated", 0.6, sections)
+    anim = synth.synthesise(body, path)
+    out = tmp_path / "synth.bvh"
+    bvh.write(out, rig.skeleton, anim)
+    skel, back = bvh.read(out)
+    skel, back = conform_to_rig(rig, skel, back, str(out))
+    assert back.num_frames == anim.num_frames
+    assert np.allclose(back.root_positions, anim.root_positions, atol=1e-6)
+    assert np.all(quat.angle_between(back.local_rotations, anim.local_rotations) < 1e-5)
+
+
+def test_path_spec_parsing():
+    s = synth.parse_path_spec([[0, 1], [2, 3.5]])
+    assert s.points.shape == (2, 2) and s.times is None
+    s = synth.parse_path_spec([[0, 1, 0.0], [2, 3, 0.5]])
+    assert np.allclose(s.times, [0, 0.5])
+    s = synth.parse_path_spec({"preset": "aborted", "amount": 0.3})
+    assert s.preset == "aborted" and s.amount == 0.3
+    s = synth.parse_path_spec({"points": [[0, 0], [1, 1]], "times": [0, 1], "fps": 60})
+    assert s.fps == 60
+    for bad in ([], [[1]], [[1, "a"]], {"preset": "huge"}, {"preset": "aborted", "amount": "x"},
+                [[0, 0], [1, 1, 2]], {"foo": 1}, 3, [[0, float("nan")]]):
+        with pytest.raises(ValueError):
+            synth.parse_path_spec(bad)
+
+
+def _planted_clip(rig, frames=80):
+    """Legs hold still throughout; the root slides in the first half, then stops."""
+    c = smooth_random_clip(rig, frames, seed=11)
+    half = frames // 2
+    legs = [j for side in ("left_leg", "right_leg") for j in rig.chains[side].joints] + \
+        [rig.feet["left"][1], rig.feet["right"][1]]
+    for j in [0] + legs:
+        c.local_rotations[:, j] = c.local_rotations[half, j]
+    c.root_positions[:, 1] = 90.0
+    c.root_positions[half:] = c.root_positions[half]
+    return c
+
+
+def test_cleanup_reattaches_hand_and_plants_feet(rig):
+    src = _planted_clip(rig)
+    p = pcam.fit_clip(rig, src, "body")
+    anim = synth.synthesise(p, synth.preset_path(synth.source_path(p), "exaggerated", 0.5))
+    s_rot, s_pos = clip_fk(rig.skeleton, src)
+    # errors before
+    g_rot, g_pos = clip_fk(rig.skeleton, anim)
+    t_pos, _ = cleanup.right_hand_targets(rig, g_rot, g_pos, s_rot, s_pos)
+    hand = rig.chains["right_arm"].effector
+    before = np.linalg.norm(g_pos[:, hand] - t_pos, axis=1)
+    res = cleanup.cleanup(rig, rig.skeleton, anim, src, fix_hand=True, plant_feet=True)
+    assert np.all(np.isfinite(res.clip.local_rotations))
+    assert np.mean(res.hand_error_cm) < 0.5 * np.mean(before) + 0.1
+    half = src.num_frames // 2
+    for side in ("left", "right"):
+        pl = res.planted[side]
+        assert pl[half + 2:-1].all()           # the still half is planted
+        ankle = rig.chains[f"{side}_leg"].effector
+        was = np.linalg.norm(g_pos[:, ankle] - s_pos[:, ankle], axis=1)
+        assert np.all(res.foot_error_cm[side][pl] <= was[pl] + 1e-6)
+        # reachable plants are met (where the exaggerated hips moved too far they cannot be)
+        assert np.median(res.foot_error_cm[side][half:]) < 0.01
+    # the untouched clip is unchanged; toggles off change nothing
+    assert not np.allclose(res.clip.local_rotations, anim.local_rotations)
+    none = cleanup.cleanup(rig, rig.skeleton, anim, src, fix_hand=False, plant_feet=False)
+    assert np.array_equal(none.clip.local_rotations, anim.local_rotations)
+
+
+def test_cleanup_of_the_source_itself_changes_little(rig):
+    src = _planted_clip(rig)
+    res = cleanup.cleanup(rig, rig.skeleton, src, src)
+    assert res.hand_error_cm.max() < 0.05
+    for side in ("left", "right"):
+        assert res.foot_error_cm[side].max() < 0.05
+    _, a = clip_fk(rig.skeleton, src)
+    _, b = clip_fk(rig.skeleton, res.clip)
+    assert np.max(np.linalg.norm(a - b, axis=-1)) < 0.1
