@@ -1,0 +1,339 @@
+"""``hitpoint analyse``: PCA of the shots (variance, style error, components strip,
+batting space). Dissertation 2.5.4-2.5.5, 3.1, 4.2."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from app.errors import UserError, cli_errors
+
+DISSERTATION = {"dof0": 0.307, "dof2": 0.398, "source": "Table 2.1"}
+PARTS = ("body", "upper")
+
+
+def register(cli: typer.Typer) -> None:
+    @cli.command("analyse")
+    @cli_errors
+    def analyse(
+        shot: list[str] = typer.Option(None, "--shot", help="Only these shots (repeatable). Default: all."),
+        as_json: bool = typer.Option(False, "--json", help="Variance as JSON instead of a table."),
+        components: int = typer.Option(5, "--components", min=1, help="PCs listed in the variance table."),
+        style: bool = typer.Option(False, "--style", help="Style RMSE (2.5.5) of adapted shots, 0-DOF vs 2-DOF wrist, as JSON."),
+        offsets: str = typer.Option("15,30", "--offsets", help="--style: hit-point offsets in cm, applied off/leg/up/down."),
+        falloff: float = typer.Option(90.0, "--falloff", help="--style: importance falloff (cm)."),
+        solver: str = typer.Option("ccd", "--solver", help="--style: ccd or dls."),
+        strip: Path = typer.Option(None, "--components-strip", help="Write a PNG of poses along PC1..3 from -3 to +3 SD (Figure 3.2)."),
+        part: str = typer.Option("upper", "--part", help="--components-strip: upper (as in Figure 3.2) or body."),
+        multi: bool = typer.Option(False, "--multi", help="The 'batting space' of all shots together (4.2): variance of 2 and 3 PCs."),
+        library: Path = typer.Option(None, "--library", help="Shot manifest (default: the bundled library)."),
+    ):
+        """PCA of each shot: explained variance per component and cumulative (first 5 PCs).
+
+        The parameters per frame are the root translation and every animated
+        joint's quaternion (3 + 26 x 4 = 107), sign-continuous and standardised.
+        "upper" uses the spine, neck, head and arm quaternions only.
+        """
+        from engine.library import find_shot, load_library
+        from engine.rig import default_rig
+
+        rig = default_rig()
+        shots = load_library(library, rig)
+        if not shots:
+            raise UserError("the shot library is empty")
+        if shot:
+            shots = [find_shot(shots, n) for n in shot]
+        if style:
+            print(json.dumps(style_report(rig, shots, _parse_offsets(offsets), falloff, solver), indent=1))
+            return
+        if strip is not None:
+            if part not in PARTS:
+                raise UserError(f"--part must be one of {', '.join(PARTS)}, got {part!r}")
+            info = write_components_strip(rig, shots[0], strip, part)
+            print(json.dumps(info, indent=1))
+            return
+        if multi:
+            print(json.dumps(multi_report(rig, shots), indent=1))
+            return
+        rows = variance_rows(rig, shots, components)
+        if as_json:
+            print(json.dumps(rows, indent=1))
+        else:
+            print_variance_table(rows, components)
+
+
+# ------------------------------------------------------------------- variance
+def variance_rows(rig, shots, components: int = 5) -> list[dict]:
+    from engine import pca as pcam
+    rows = []
+    for s in shots:
+        row = {"name": s.name, "frames": s.num_frames}
+        for part in PARTS:
+            p = pcam.fit_clip(rig, s.clip, part)
+            k = min(components, p.num_components)
+            row[part] = {
+                "parameters": p.num_params,
+                "explained": [round(float(v), 4) for v in p.explained[:k]],
+                "cumulative": [round(float(v), 4) for v in p.cumulative[:k]],
+                "pcs_for_70_percent": int(np.searchsorted(p.cumulative, 0.7 - 1e-12) + 1),
+            }
+        rows.append(row)
+    return rows
+
+
+def print_variance_table(rows: list[dict], components: int) -> None:
+    k = components
+    head = "".join(f"{'PC' + str(i + 1):>7}" for i in range(k))
+    print(f"{'shot':<18}{'part':<6}{'P':>4}  explained % per PC{' ' * max(0, 7 * k - 18)}  cumulative %")
+    print(f"{'':<18}{'':<6}{'':>4}  {head}  {head}  PCs for 70%")
+    for r in rows:
+        for part in PARTS:
+            d = r[part]
+            e = "".join(f"{100 * v:7.1f}" for v in d["explained"]) + " " * 7 * (k - len(d["explained"]))
+            c = "".join(f"{100 * v:7.1f}" for v in d["cumulative"]) + " " * 7 * (k - len(d["cumulative"]))
+            name = r["name"] if part == PARTS[0] else ""
+            print(f"{name:<18}{part:<6}{d['parameters']:>4}  {e}  {c}  {d['pcs_for_70_percent']:>6}")
+
+
+def multi_report(rig, shots) -> dict:
+    from engine import pca as pcam
+    out = {"shots": [s.name for s in shots], "frames": int(sum(s.num_frames for s in shots))}
+    for part in PARTS:
+        p = pcam.fit_clips(rig, [s.clip for s in shots], part)
+        single = [float(pcam.fit_clip(rig, s.clip, part).cumulative[min(2, s.num_frames - 1)]) for s in shots]
+        out[part] = {
+            "parameters": p.num_params,
+            "explained": [round(float(v), 4) for v in p.explained[:5]],
+            "variance_2pcs": round(float(p.cumulative[min(1, p.num_components - 1)]), 4),
+            "variance_3pcs": round(float(p.cumulative[min(2, p.num_components - 1)]), 4),
+            "pcs_for_70_percent": int(np.searchsorted(p.cumulative, 0.7 - 1e-12) + 1),
+            "single_shot_mean_variance_3pcs": round(float(np.mean(single)), 4),
+        }
+    return out
+
+
+# ---------------------------------------------------------------- style error
+def _parse_offsets(text: str) -> list[float]:
+    try:
+        vals = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise UserError(f"--offsets must be comma-separated numbers in cm, got {text!r}") from None
+    if not vals or not all(np.isfinite(vals)) or any(v <= 0 for v in vals):
+        raise UserError(f"--offsets must be positive finite numbers in cm, got {text!r}")
+    return vals
+
+
+# off side is -X for the bundled right-handed batsman (he faces -X in stance)
+DIRECTIONS = {"off": (-1.0, 0.0, 0.0), "leg": (1.0, 0.0, 0.0), "up": (0.0, 1.0, 0.0), "down": (0.0, -1.0, 0.0)}
+
+
+def style_report(rig, shots, offsets: list[float], falloff: float, solver: str) -> dict:
+    """Style RMSE (2.5.5) of every shot adapted to hit points around its own, with
+    the left wrist at 0 and at 2 DOF; upper-body and whole-body PC spaces."""
+    try:
+        from engine.adapt import AdaptSettings, Adapter
+    except ImportError:
+        raise UserError("--style needs engine.adapt (the IK adaptation), which is not available") from None
+    from engine import pca as pcam
+
+    results, all_rmse = [], {(p, d): [] for p in PARTS for d in (0, 2)}
+    for s in shots:
+        adapter = Adapter(rig, s)
+        spaces = {p: pcam.fit_clip(rig, s.clip, p) for p in PARTS}
+        per = []
+        for name, direction in DIRECTIONS.items():
+            for dist in offsets:
+                d = np.asarray(direction) * dist
+                entry = {"offset": f"{name} {dist:g}", "offset_cm": [float(v) for v in d]}
+                for dof in (0, 2):
+                    a = adapter.adapt(s.hit_point + d, AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver))
+                    for p in PARTS:
+                        e = pcam.style_error(spaces[p], a.root_positions, a.local_rotations, 3)
+                        entry[f"{p}_dof{dof}"] = round(e, 4)
+                        all_rmse[(p, dof)].append(e)
+                    entry[f"bat_error_cm_dof{dof}"] = round(float(a.bat_error_cm), 3)
+                per.append(entry)
+        summary = {}
+        for p in PARTS:
+            r0 = float(np.sqrt(np.mean([e[f"{p}_dof0"] ** 2 for e in per])))
+            r2 = float(np.sqrt(np.mean([e[f"{p}_dof2"] ** 2 for e in per])))
+            summary[p] = {"dof0": round(r0, 4), "dof2": round(r2, 4),
+                          "dof0_better": bool(r0 < r2),
+                          "difference_percent": round(100 * (r2 - r0) / r0, 1) if r0 > 0 else None}
+        results.append({"name": s.name, **summary,
+                        "agrees_with_dissertation": summary["upper"]["dof0_better"],
+                        "offsets": per})
+    overall = {}
+    for p in PARTS:
+        r0 = float(np.sqrt(np.mean(np.square(all_rmse[(p, 0)]))))
+        r2 = float(np.sqrt(np.mean(np.square(all_rmse[(p, 2)]))))
+        overall[p] = {"dof0": round(r0, 4), "dof2": round(r2, 4), "dof0_better": bool(r0 < r2),
+                      "difference_percent": round(100 * (r2 - r0) / r0, 1) if r0 > 0 else None,
+                      "shots_dof0_better": int(sum(r[p]["dof0_better"] for r in results))}
+    return {
+        "method": "project each adapted shot into its source's first 3 PCs; RMSE over frames of "
+                  "the Euclidean score distance; per shot and overall the quadratic mean over offsets",
+        "offsets_cm": offsets, "directions": list(DIRECTIONS),
+        "settings": {"falloff": falloff, "solver": solver},
+        "dissertation": DISSERTATION,
+        "overall": overall,
+        "agrees_with_dissertation": overall["upper"]["dof0_better"],
+        "shots": results,
+    }
+
+
+# ------------------------------------------------------------ components strip
+def components_poses(rig, clip, part: str = "upper", sds=(-3, -2, -1, 0, 1, 2, 3), pcs: int = 3):
+    """Poses along each of the first ``pcs`` PCs (others 0) at ``sds`` standard
+    deviations of the observed scores: ``root (pcs, n, 3)``, ``local (pcs, n, J, 4)``."""
+    from engine import pca as pcam
+    p = pcam.fit_clip(rig, clip, part)
+    pcs = min(pcs, p.num_components)
+    scores = np.zeros((pcs, len(sds), pcs))
+    sd = p.score_sd
+    for k in range(pcs):
+        scores[k, :, k] = np.asarray(sds, float) * sd[k]
+    root, rot = p.pose_from_scores(scores)
+    return p, root, rot
+
+
+def write_components_strip(rig, shot, path: Path, part: str = "upper", cell: int = 220) -> dict:
+    """Figure 3.2: rows PC1..PC3, columns -3..+3 SD. Uses the renderer when it is
+    available, else stick figures drawn with Pillow."""
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise UserError(f"--components-strip: {path} must end in .png")
+    if not path.parent.exists():
+        raise UserError(f"--components-strip: folder {path.parent} does not exist")
+    sds = (-3, -2, -1, 0, 1, 2, 3)
+    p, root, rot = components_poses(rig, shot.clip, part, sds)
+    method = "renderer"
+    try:
+        img = _render_strip_gl(rig, root, rot, cell)
+    except Exception as e:  # renderer missing or no GL: stick figures still show the PCs
+        method = f"stick figures ({type(e).__name__})"
+        img = _render_strip_sticks(rig, root, rot, cell)
+    img = _label_strip(img, shot.name, part, p, sds, cell)
+    _atomic_png(img, path)
+    return {"shot": shot.name, "part": part, "file": str(path), "method": method,
+            "rows": [f"PC{k + 1}" for k in range(root.shape[0])], "columns_sd": list(sds),
+            "variance_3pcs": round(float(p.cumulative[min(2, p.num_components - 1)]), 4)}
+
+
+def _atomic_png(img, path: Path) -> None:
+    import os
+    import tempfile
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp.png", dir=path.parent)
+    os.close(fd)
+    try:
+        img.save(tmp, format="PNG")
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _view_axes():
+    """Screen axes for a view from the off side, a little toward the bowler and above."""
+    eye = np.array([-1.0, 0.35, 0.75])
+    f = -eye / np.linalg.norm(eye)
+    right = np.cross(f, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, f)
+    return right, up, f
+
+
+def _bat_segment(rig, g_rot, g_pos):
+    """Bat handle top and toe ``(..., 3)`` from the top hand's global pose."""
+    from engine import quat
+    lh = int(rig.skeleton.parents[rig.bat_joint])
+    bat = rig.bat
+    axis = np.asarray(bat["axis"], float)
+    grip = np.asarray(bat["left_grip"], float)
+    top = grip - axis * bat["grip_to_top"]
+    toe = top + axis * bat["length"]
+    r, p = g_rot[..., lh, :], g_pos[..., lh, :]
+    return p + quat.rotate(r, top), p + quat.rotate(r, toe)
+
+
+def _render_strip_sticks(rig, root, rot, cell: int):
+    from PIL import Image, ImageDraw
+    from engine.skeleton import Clip, clip_fk
+    rows, cols = root.shape[:2]
+    J = rot.shape[-2]
+    clip = Clip(root.reshape(-1, 3), rot.reshape(-1, J, 4))
+    g_rot, g_pos = clip_fk(rig.skeleton, clip)
+    top, toe = _bat_segment(rig, g_rot, g_pos)
+    right, up, _ = _view_axes()
+    # centre every cell on the average root so the root's own motion still shows
+    centre = root.reshape(-1, 3).mean(axis=0)
+    pts = g_pos - centre
+    scale = cell / 260.0
+    img = Image.new("RGB", (cols * cell, rows * cell + 30), (245, 245, 240))
+    draw = ImageDraw.Draw(img)
+    names = rig.skeleton.names
+    parents = rig.skeleton.parents
+
+    def to_px(v, r, c):
+        x = c * cell + cell / 2 + scale * float(v @ right)
+        y = 30 + r * cell + cell * 0.42 - scale * float(v @ up)
+        return (x, y)
+
+    for i in range(rows * cols):
+        r, c = divmod(i, cols)
+        ground = np.array([0.0, -centre[1], 0.0])
+        draw.line([to_px(ground - 60 * right, r, c), to_px(ground + 60 * right, r, c)], fill=(180, 180, 170), width=2)
+        for j in range(1, rig.animated_joints):
+            n = names[j]
+            col = (40, 90, 220) if n.startswith("Left") else (210, 50, 40) if n.startswith("Right") else (60, 60, 60)
+            draw.line([to_px(pts[i, parents[j]], r, c), to_px(pts[i, j], r, c)], fill=col, width=3)
+        draw.line([to_px(top[i] - centre, r, c), to_px(toe[i] - centre, r, c)], fill=(150, 100, 40), width=5)
+        hx, hy = to_px(pts[i, names.index("Head")] if "Head" in names else pts[i, 0], r, c)
+        draw.ellipse([hx - 6, hy - 6, hx + 6, hy + 6], outline=(60, 60, 60), width=2)
+    return img
+
+
+def _render_strip_gl(rig, root, rot, cell: int):
+    """Skinned batsman per cell through the render API (app.render)."""
+    from PIL import Image
+    from app.render import scene as rs
+    from engine.skeleton import Clip, bind_positions, clip_fk, skinning_matrices
+    rows, cols = root.shape[:2]
+    J = rot.shape[-2]
+    g_rot, g_pos = clip_fk(rig.skeleton, Clip(root.reshape(-1, 3), rot.reshape(-1, J, 4)))
+    skin = skinning_matrices(g_rot, g_pos, bind_positions(rig.skeleton))
+    ctx = rs.offscreen_context()
+    renderer = rs.SceneRenderer(ctx, rig)
+    centre = root.reshape(-1, 3).mean(axis=0)
+    right, up, f = _view_axes()
+    target = np.array([centre[0], 100.0, centre[2]])
+    eye = target - f * 420.0
+    view = rs.look_at(eye, target)
+    proj = rs.perspective(30.0, 1.0, 10.0, 5000.0)
+    img = Image.new("RGB", (cols * cell, rows * cell + 30), (245, 245, 240))
+    for i in range(rows * cols):
+        sv = rs.SceneView(view=np.asarray(view, np.float32), proj=np.asarray(proj, np.float32),
+                          size=(cell, cell), skin_matrices=skin[i], show_pitch=True)
+        tile = rs.render_image(renderer, sv)
+        r, c = divmod(i, cols)
+        img.paste(Image.fromarray(np.asarray(tile, np.uint8)), (c * cell, 30 + r * cell))
+    return img
+
+
+def _label_strip(img, name, part, p, sds, cell):
+    from PIL import ImageDraw
+    draw = ImageDraw.Draw(img)
+    cum = p.cumulative
+    draw.text((6, 8), f"{name}: {part} PCA, PC1..3 capture {100 * cum[min(2, len(cum) - 1)]:.1f}% "
+                      f"(columns {sds[0]:+d} .. {sds[-1]:+d} SD of the observed scores)", fill=(20, 20, 20))
+    for k in range((img.height - 30) // cell):
+        draw.text((6, 30 + k * cell + 6), f"PC{k + 1} ({100 * p.explained[k]:.1f}%)", fill=(20, 20, 20))
+    for c, s in enumerate(sds):
+        draw.text((c * cell + cell // 2 - 10, img.height - 16), f"{s:+d} SD", fill=(90, 90, 90))
+    return img
+

@@ -1,0 +1,84 @@
+"""``hitpoint synth``: a path in a shot's PC space in, an animation (BVH) out
+(dissertation 3.2, clean-up of 3.3)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from app.errors import UserError, cli_errors
+
+
+def register(cli: typer.Typer) -> None:
+    @cli.command("synth")
+    @cli_errors
+    def synth_cmd(
+        shot: str = typer.Option(..., "--shot", help="Source shot (its PC space)."),
+        path: Path = typer.Option(..., "--path", help="Path JSON: a list of [pc1, pc2] (or [pc1, pc2, seconds]), "
+                                  "{\"points\": [...], \"times\": [...], \"fps\": 30}, or "
+                                  "{\"preset\": \"exaggerated|toned_down|aborted\", \"amount\": x}."),
+        out: Path = typer.Option(..., "--out", help="Output BVH (written atomically)."),
+        fix_hand: bool = typer.Option(True, "--fix-hand/--no-fix-hand", help="Re-attach the right hand to the bat."),
+        plant_feet: bool = typer.Option(True, "--plant-feet/--no-plant-feet", help="Keep the source's planted feet planted."),
+        fps: float = typer.Option(None, "--fps", help="Frame rate when the path has timestamps (default: the shot's)."),
+        library: Path = typer.Option(None, "--library", help="Shot manifest (default: the bundled library)."),
+    ):
+        """Synthesise an animation from a path through the shot's first two PCs.
+
+        Without timestamps the path is stretched over the source's length.
+        Presets (Figure 3.7): exaggerated / toned_down scale the path's radius
+        about its centre by 1 +/- amount between backlift and follow-through;
+        aborted leaves the path at `amount` of the way from backlift to hit (or
+        at "abort_frame") and heads straight for the rest pose. Prints a JSON
+        summary (frames, clean-up errors).
+        """
+        import numpy as np
+
+        from engine import bvh, cleanup, synth
+        from engine import pca as pcam
+        from engine.library import find_shot, load_library
+        from engine.rig import default_rig
+
+        if out.suffix.lower() != ".bvh":
+            raise UserError(f"--out {out}: only .bvh output is supported")
+        if not out.parent.exists():
+            raise UserError(f"--out {out}: folder {out.parent} does not exist")
+        if out.is_dir():
+            raise UserError(f"--out {out} is a folder")
+        try:
+            obj = json.loads(path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError as e:
+            raise UserError(f"{path}: not valid JSON (line {e.lineno}: {e.msg})") from None
+        except UnicodeDecodeError:
+            raise UserError(f"{path}: not a UTF-8 text file") from None
+        except FileNotFoundError:
+            raise UserError(f"{path}: file not found") from None
+        except IsADirectoryError:
+            raise UserError(f"{path} is a folder, not a path file") from None
+        try:
+            spec = synth.parse_path_spec(obj)
+        except ValueError as e:
+            raise UserError(f"{path}: {e}") from None
+        if fps is not None and not (np.isfinite(fps) and fps > 0):
+            raise UserError(f"--fps must be positive, got {fps}")
+
+        rig = default_rig()
+        src = find_shot(load_library(library, rig), shot)
+        space = pcam.fit_clip(rig, src.clip, "body")
+        sections = synth.shot_sections(src.fk[1][:, rig.bat_joint], src.hit_frame)
+        points = synth.path_from_spec(spec, space, sections)
+        rate = fps or spec.fps or float(src.clip.fps)
+        anim = synth.synthesise(space, points, frames=None if spec.times is not None else src.num_frames,
+                                times=spec.times, fps=rate)
+        summary = {"shot": src.name, "out": str(out), "frames": anim.num_frames, "fps": round(rate, 4),
+                   "path": spec.preset or f"{len(points)} points" + (" with timestamps" if spec.times is not None else ""),
+                   "variance_2pcs": round(float(space.cumulative[min(1, space.num_components - 1)]), 4)}
+        if spec.preset:
+            summary["amount"] = spec.amount if spec.amount is not None else synth.DEFAULT_AMOUNT[spec.preset]
+        if fix_hand or plant_feet:
+            res = cleanup.cleanup(rig, src.skeleton, anim, src.clip, fix_hand, plant_feet)
+            anim = res.clip
+            summary["cleanup"] = {k: round(v, 3) if isinstance(v, float) else v for k, v in res.summary().items()}
+        bvh.write(out, src.skeleton, anim)
+        print(json.dumps(summary, indent=1))
