@@ -1,0 +1,246 @@
+"""The docked panel on the right (ImGui). It writes only to the settings; the
+state is read for readouts. Top to bottom: shot and solver settings (falloff
+first), playback, overlays, readouts, the blend plot, the PC pad, messages."""
+from __future__ import annotations
+
+import importlib
+import time
+
+import numpy as np
+from imgui_bundle import imgui, implot
+
+from app.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, SOLVERS,
+                          SPEED_RANGE, TOLERANCE_RANGE, ViewerSettings)
+from app.state import AppState
+
+PANEL_WIDTH = 360
+_WINDOW_FLAGS = (imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize
+                 | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings)
+ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
+DIM = imgui.ImVec4(0.65, 0.67, 0.7, 1.0)
+BLUE = imgui.ImVec4(0.3, 0.55, 1.0, 1.0)
+RED = imgui.ImVec4(0.95, 0.25, 0.2, 1.0)
+
+
+def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, extras: dict) -> None:
+    """The panel window at ``rect = (x, y, w, h)``; ``extras`` carries UI-only
+    callbacks/results owned by the loop (e.g. a pc-pad module)."""
+    x, y, w, h = rect
+    imgui.set_next_window_pos(imgui.ImVec2(x, y))
+    imgui.set_next_window_size(imgui.ImVec2(w, h))
+    imgui.begin("Hitpoint", None, _WINDOW_FLAGS)
+    try:
+        _shot_section(settings, state)
+        _solver_section(settings)
+        _playback_section(settings, state)
+        _overlay_section(settings)
+        _readouts_section(settings, state)
+        _blend_plot(settings, state)
+        _pc_pad(state, extras)
+        _capture_section(settings, extras)
+        _messages(state)
+    finally:
+        imgui.end()
+
+
+def _shot_section(settings: ViewerSettings, state: AppState) -> None:
+    imgui.separator_text("Shot")
+    chosen = state.shot
+    auto_label = f"auto: {chosen.name}" if chosen is not None and settings.pinned_shot is None else "auto (ball path)"
+    preview = auto_label if settings.pinned_shot is None else f"pinned: {settings.pinned_shot}"
+    if imgui.begin_combo("source", preview):
+        if imgui.selectable(auto_label + "##auto", settings.pinned_shot is None)[0]:
+            settings.pinned_shot = None
+        for s in state.shots:
+            if imgui.selectable(s.name, settings.pinned_shot == s.name)[0]:
+                settings.pinned_shot = s.name
+        imgui.end_combo()
+    if chosen is not None:
+        imgui.text_colored(DIM, f"{chosen.name}: {chosen.num_frames} frames, hit frame {chosen.hit_frame}")
+        if chosen.description:
+            imgui.push_text_wrap_pos(0.0)
+            imgui.text_colored(DIM, chosen.description)
+            imgui.pop_text_wrap_pos()
+    else:
+        imgui.text_colored(ERROR_COLOR, "no shot loaded")
+    t = settings.target
+    changed, xy = imgui.drag_float2("target x, y", [float(t[0]), float(t[1])], 0.5, format="%.1f cm")
+    if changed:
+        settings.target = np.array([xy[0], xy[1], t[2]])
+
+
+def _falloff_slider(settings: ViewerSettings) -> None:
+    changed, v = imgui.slider_float("falloff", settings.falloff, *FALLOFF_RANGE, "%.0f cm")
+    if changed:
+        settings.falloff = v
+    # Mark the dissertation's useful 70-110 band on the slider's frame.
+    lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    frame_w = imgui.calc_item_width()
+    span = FALLOFF_RANGE[1] - FALLOFF_RANGE[0]
+    x0 = lo.x + frame_w * (FALLOFF_BAND[0] - FALLOFF_RANGE[0]) / span
+    x1 = lo.x + frame_w * (FALLOFF_BAND[1] - FALLOFF_RANGE[0]) / span
+    dl = imgui.get_window_draw_list()
+    dl.add_rect_filled(imgui.ImVec2(x0, hi.y - 4), imgui.ImVec2(x1, hi.y), imgui.get_color_u32(
+        imgui.ImVec4(0.3, 0.85, 0.4, 0.8)))
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("IK falloff distance (section 2.2.5); green: the useful 70-110 cm band")
+
+
+def _solver_section(settings: ViewerSettings) -> None:
+    imgui.separator_text("Solver")
+    _falloff_slider(settings)
+    imgui.text("left wrist")
+    for dof in (0, 2):
+        imgui.same_line()
+        if imgui.radio_button(f"{dof} DOF", settings.wrist_dof == dof):
+            settings.wrist_dof = dof
+    imgui.text("solver    ")
+    for name in SOLVERS:
+        imgui.same_line()
+        if imgui.radio_button(name.upper(), settings.solver == name):
+            settings.solver = name
+    changed, v = imgui.slider_int("iterations", settings.iterations, *ITERATIONS_RANGE)
+    if changed:
+        settings.iterations = v
+    changed, v = imgui.slider_float("tolerance", settings.tolerance, *TOLERANCE_RANGE, "%.4f cm",
+                                    imgui.SliderFlags_.logarithmic)
+    if changed:
+        settings.tolerance = v
+    changed, v = imgui.checkbox("right hand follows the grip", settings.fix_right_hand)
+    if changed:
+        settings.fix_right_hand = v
+
+
+def _playback_section(settings: ViewerSettings, state: AppState) -> None:
+    imgui.separator_text("Playback")
+    if imgui.button("Pause" if settings.playing else "Play"):
+        settings.playing = not settings.playing
+    imgui.same_line()
+    if imgui.button("Hit frame") and state.shot is not None:
+        settings.playing, settings.frame = False, float(state.shot.hit_frame)
+    imgui.same_line()
+    changed, v = imgui.checkbox("slow motion", settings.slow_motion)
+    if changed:
+        settings.slow_motion = v
+    changed, v = imgui.slider_float("speed", settings.speed, *SPEED_RANGE, "%.2fx",
+                                    imgui.SliderFlags_.logarithmic)
+    if changed:
+        settings.speed = v
+    imgui.text_colored(DIM, "space play, <- -> step, H hit frame, S slow, [ ] speed, F12 shot")
+
+
+def _overlay_section(settings: ViewerSettings) -> None:
+    if not imgui.collapsing_header("Overlays", imgui.TreeNodeFlags_.default_open):
+        return
+    o = settings.overlays
+    imgui.text("source pose")
+    for mode in GHOST_MODES:
+        imgui.same_line()
+        if imgui.radio_button(f"{mode}##ghost", o.ghost == mode):
+            o.ghost = mode
+    items = [("hit_points", "FK hit points"), ("ball_path", "ball path"), ("desired_point", "desired hit point"),
+             ("bat_path", "bat path"), ("source_bat_path", "source bat path"), ("flight", "ball flight"),
+             ("ball", "ball"), ("skeleton", "adapted skeleton"), ("pitch", "pitch")]
+    for i, (name, label) in enumerate(items):
+        if i % 2:
+            imgui.same_line(175)
+        changed, v = imgui.checkbox(label, getattr(o, name))
+        if changed:
+            setattr(o, name, v)
+
+
+def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
+    imgui.separator_text("Readouts")
+    r = state.readouts
+    if imgui.begin_table("readouts", 2, imgui.TableFlags_.sizing_stretch_prop):
+        rows = [("bat error at hit frame", f"{r.bat_error_cm:.3f} cm"),
+                ("grip error (this frame)", f"{r.grip_error_cm:.2f} cm  {r.grip_error_deg:.1f} deg"),
+                ("grip error (max)", f"{r.max_grip_error_cm:.2f} cm"),
+                ("engine this frame", f"{r.engine_ms:.2f} ms"),
+                ("last whole-shot solve", f"{r.solve_ms:.2f} ms"),
+                ("render", f"{r.render_ms:.2f} ms"),
+                ("frame", f"{r.frame_ms:.2f} ms  ({r.fps:.0f} fps)"),
+                ("frame shown", f"{settings.frame:.2f} / {state.num_frames - 1}")]
+        if state.desired_hit_point is not None:
+            d = state.desired_hit_point
+            rows.append(("desired hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))
+        for label, value in rows:
+            imgui.table_next_row()
+            imgui.table_next_column()
+            imgui.text_colored(DIM, label)
+            imgui.table_next_column()
+            imgui.text(value)
+        imgui.end_table()
+
+
+def _blend_plot(settings: ViewerSettings, state: AppState) -> None:
+    a = state.adaptation
+    if a is None or state.time_blend is None:
+        return
+    imgui.separator_text("IK blend over the shot (Figure 2.3)")
+    blend = np.asarray(a.blend, float)
+    frames = np.arange(blend.size, dtype=float)
+    if implot.begin_plot("##blend", imgui.ImVec2(-1, 150)):
+        implot.setup_axes("frame", "blend", implot.AxisFlags_.auto_fit, implot.AxisFlags_.lock)
+        implot.setup_axis_limits(implot.ImAxis_.y1, -0.05, 1.1, implot.Cond_.always)
+        spec = implot.Spec()
+        spec.line_color, spec.line_weight = BLUE, 2.0
+        implot.plot_line("importance", frames, blend, spec=spec)
+        spec2 = implot.Spec()
+        spec2.line_color, spec2.line_weight = RED, 1.5
+        implot.plot_line("time-based", frames, np.asarray(state.time_blend, float), spec=spec2)
+        if state.shot is not None:
+            implot.tag_x(float(state.shot.hit_frame), RED, "hit")
+        changed, x, *_ = implot.drag_line_x(0, float(settings.frame), imgui.ImVec4(1, 1, 1, 0.7), 1.0)
+        if changed:
+            settings.frame, settings.playing = x, False
+        implot.end_plot()
+
+
+def _pc_pad(state: AppState, extras: dict) -> None:
+    module = extras.get("pcpad")
+    if module is None:
+        return
+    if imgui.collapsing_header("PC pad", imgui.TreeNodeFlags_.default_open):
+        try:
+            module.draw_pc_pad(state)
+        except Exception as e:  # someone else's widget must not take the window down
+            state.report(f"pc pad: {type(e).__name__}: {e}")
+
+
+def load_pcpad():
+    """``app.pcpad`` if it exists (the PCA engineer's module), else None."""
+    try:
+        return importlib.import_module("app.pcpad")
+    except ModuleNotFoundError as e:
+        if e.name != "app.pcpad":
+            raise
+        return None
+
+
+def _capture_section(settings: ViewerSettings, extras: dict) -> None:
+    imgui.separator_text("Capture")
+    if imgui.button("Screenshot (F12)"):
+        settings.screenshot_requested = True
+    imgui.same_line()
+    if imgui.button("Export shot frames"):
+        settings.export_requested = True
+    last = extras.get("last_capture")
+    if last:
+        imgui.push_text_wrap_pos(0.0)
+        imgui.text_colored(DIM, f"wrote {last}")
+        imgui.pop_text_wrap_pos()
+
+
+def _messages(state: AppState) -> None:
+    status = {k: v for k, v in state.status.items() if v != "ok"}
+    if not state.messages and not status:
+        return
+    imgui.separator_text("Messages")
+    imgui.push_text_wrap_pos(0.0)
+    for piece, why in status.items():
+        imgui.text_colored(ERROR_COLOR, f"{piece}: {why}")
+    now = time.time()
+    for t, line in reversed(state.messages[-4:]):
+        imgui.text_colored(ERROR_COLOR, f"[{max(now - t, 0):.0f}s ago] {line}")
+    imgui.pop_text_wrap_pos()

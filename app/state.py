@@ -1,0 +1,86 @@
+"""Everything the viewer derived from the settings: the library, the chosen
+shot, the last good adaptation, the pose on screen, readouts and messages.
+Written by ``app.update`` (and ``app.interaction`` for hover/drag), read by
+the panel and by render submission."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Readouts:
+    bat_error_cm: float = float("nan")     # |bat - desired| at the hit frame
+    grip_error_cm: float = float("nan")    # right hand vs source grip, this frame
+    grip_error_deg: float = float("nan")
+    max_grip_error_cm: float = float("nan")
+    engine_ms: float = 0.0                  # engine time spent this frame
+    solve_ms: float = 0.0                   # last whole-shot solve
+    render_ms: float = 0.0
+    frame_ms: float = 0.0
+    fps: float = 0.0
+
+
+@dataclass
+class Pose:
+    """One frame of a skeleton in world space."""
+    global_rotations: np.ndarray   # (J,4)
+    global_positions: np.ndarray   # (J,3)
+
+
+@dataclass
+class AppState:
+    rig: object = None
+    shots: list = field(default_factory=list)
+    hit_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))   # (N,3) FK hit points
+    bind_positions: np.ndarray | None = None                                   # (J,3)
+    adapters: dict = field(default_factory=dict)      # shot index -> engine.adapt.Adapter
+    ball_start: np.ndarray = field(default_factory=lambda: np.array([0.0, 100.0, 1800.0]))
+    # the last good solve
+    shot_index: int = -1
+    desired_hit_point: np.ndarray | None = None       # (3,)
+    adaptation: object = None                         # engine.adapt.Adaptation
+    flight: np.ndarray | None = None                  # (K,3) ball after impact
+    flight_dt: float = 1.0 / 30.0                     # seconds between flight samples
+    time_blend: np.ndarray | None = None              # (F,) the time-based curve of Figure 2.3
+    solved_key: tuple | None = None
+    solve_count: int = 0
+    # this frame
+    pose: Pose | None = None
+    source_pose: Pose | None = None
+    ball_position: np.ndarray | None = None
+    # interaction
+    viewport: tuple = (0, 0, 1, 1)                    # (x, y, w, h) window pixels, top-left origin
+    hover_target: bool = False
+    dragging_target: bool = False
+    cursor: str = "arrow"
+    readouts: Readouts = field(default_factory=Readouts)
+    messages: list = field(default_factory=list)      # [(time, text)] newest last
+    errors: int = 0                                   # count of reported errors
+    status: dict = field(default_factory=dict)        # piece -> "ok" / why it is missing
+
+    @property
+    def shot(self):
+        return self.shots[self.shot_index] if 0 <= self.shot_index < len(self.shots) else None
+
+    @property
+    def num_frames(self) -> int:
+        shot = self.shot
+        return shot.num_frames if shot is not None else 1
+
+    @property
+    def fps(self) -> float:
+        shot = self.shot
+        return float(shot.clip.fps) if shot is not None else 30.0
+
+    def report(self, text: str) -> None:
+        """Show a one-line message in the panel (errors never kill the window)."""
+        line = str(text).strip().splitlines()[0] if str(text).strip() else "error"
+        self.errors += 1
+        if self.messages and self.messages[-1][1] == line:
+            self.messages[-1] = (time.time(), line)
+        else:
+            self.messages.append((time.time(), line))
+            del self.messages[:-6]

@@ -1,0 +1,72 @@
+"""Render submission: turn the state, settings and camera into one
+``app.render.SceneView`` (plain arrays) for ``SceneRenderer.render``."""
+from __future__ import annotations
+
+import numpy as np
+
+from app.camera import OrbitCamera
+from app.picking import TARGET_NORMAL
+from app.settings import ViewerSettings
+from app.state import AppState
+
+HIT_POINT_RGBA = (0.2, 0.45, 1.0, 1.0)          # the nine FK hit points: blue crosses
+CHOSEN_RGBA = (0.55, 0.8, 1.0, 1.0)
+BALL_PATH_RGBA = (1.0, 1.0, 1.0, 0.55)
+DESIRED_RGBA = (1.0, 0.85, 0.1, 1.0)
+BAT_PATH_RGBA = (1.0, 0.55, 0.1, 0.95)
+SOURCE_BAT_PATH_RGBA = (0.6, 0.65, 0.75, 0.7)
+FLIGHT_RGBA = (0.3, 1.0, 0.45, 0.9)
+SKELETON_RGBA = (1.0, 0.9, 0.2, 1.0)
+GHOST_SKELETON_RGBA = (0.7, 0.8, 1.0, 0.8)
+
+
+def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCamera,
+                     size: tuple[int, int]):
+    """The ``SceneView`` of this frame for a viewport of ``size = (w, h)`` pixels."""
+    from app.render.scene import SceneView
+    from engine.skeleton import skinning_matrices
+    w, h = int(size[0]), int(size[1])
+    o = settings.overlays
+    parents = state.rig.skeleton.parents if state.rig is not None else None
+    view = SceneView(view=camera.view(), proj=camera.proj(w / max(h, 1)), size=(w, h),
+                     skin_matrices=_skin(state.pose, state, skinning_matrices))
+    view.show_pitch = o.pitch
+    view.target_position = np.asarray(settings.target, np.float32)
+    view.target_normal = TARGET_NORMAL
+    view.target_highlight = bool(state.hover_target or state.dragging_target)
+    if state.source_pose is not None and o.ghost == "mesh":
+        view.ghost_skin_matrices = _skin(state.source_pose, state, skinning_matrices)
+    lines = []
+    if state.source_pose is not None and o.ghost == "skeleton":
+        lines.append((state.source_pose.global_positions, parents, GHOST_SKELETON_RGBA))
+    if state.pose is not None and o.skeleton:
+        lines.append((state.pose.global_positions, parents, SKELETON_RGBA))
+    view.skeleton_lines = lines
+    crosses, points, polylines = [], [], []
+    if o.hit_points and len(state.hit_points):
+        crosses.append((state.hit_points.astype(np.float32), HIT_POINT_RGBA, 8.0))
+        if state.shot is not None:
+            crosses.append((state.hit_points[state.shot_index:state.shot_index + 1].astype(np.float32),
+                            CHOSEN_RGBA, 11.0))
+    if o.ball_path:
+        polylines.append((np.array([state.ball_start, settings.target], np.float32), BALL_PATH_RGBA, 1.5))
+    if o.desired_point and state.desired_hit_point is not None:
+        points.append((state.desired_hit_point[None].astype(np.float32), DESIRED_RGBA, 9.0))
+    bat = state.rig.bat_joint if state.rig is not None else None
+    if o.source_bat_path and state.shot is not None:
+        polylines.append((state.shot.fk[1][:, bat].astype(np.float32), SOURCE_BAT_PATH_RGBA, 1.5))
+    if o.bat_path and state.adaptation is not None:
+        polylines.append((state.adaptation.global_positions[:, bat].astype(np.float32), BAT_PATH_RGBA, 2.5))
+    if o.flight and state.flight is not None and len(state.flight) > 1:
+        polylines.append((state.flight.astype(np.float32), FLIGHT_RGBA, 2.0))
+    view.crosses, view.points, view.polylines = crosses, points, polylines
+    if o.ball and state.ball_position is not None:
+        view.ball_position = np.asarray(state.ball_position, np.float32)
+    return view
+
+
+def _skin(pose, state: AppState, skinning_matrices) -> np.ndarray:
+    if pose is None or state.bind_positions is None:
+        J = state.rig.skeleton.num_joints if state.rig is not None else 1
+        return np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
+    return skinning_matrices(pose.global_rotations, pose.global_positions, state.bind_positions)

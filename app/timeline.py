@@ -1,0 +1,79 @@
+"""The timeline scrubber along the bottom of the 3D view: one tick per frame,
+the hit frame marked in red, the current frame as a handle; clicking or
+dragging anywhere on the track scrubs (writes ``settings.frame``)."""
+from __future__ import annotations
+
+import numpy as np
+from imgui_bundle import imgui
+
+from app.settings import ViewerSettings
+from app.state import AppState
+
+TIMELINE_HEIGHT = 46
+_FLAGS = (imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_collapse
+          | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar
+          | imgui.WindowFlags_.no_saved_settings)
+TRACK_MARGIN = 12.0
+
+
+def frame_at(x: float, track_x0: float, track_x1: float, num_frames: int) -> float:
+    """The frame under window x on a track spanning [track_x0, track_x1]."""
+    a = (x - track_x0) / max(track_x1 - track_x0, 1.0)
+    return float(np.clip(np.round(a * (num_frames - 1)), 0, num_frames - 1))
+
+
+def track_x(frame: float, track_x0: float, track_x1: float, num_frames: int) -> float:
+    return track_x0 + (track_x1 - track_x0) * frame / max(num_frames - 1, 1)
+
+
+def track_span(rect: tuple) -> tuple[float, float]:
+    """Window x of the track's first and last frame, for a timeline at ``rect``."""
+    x, _, w, _ = rect
+    play_w = 56.0
+    return x + TRACK_MARGIN + play_w, x + w - TRACK_MARGIN
+
+
+def draw_timeline(settings: ViewerSettings, state: AppState, rect: tuple) -> None:
+    x, y, w, h = rect
+    imgui.set_next_window_pos(imgui.ImVec2(x, y))
+    imgui.set_next_window_size(imgui.ImVec2(w, h))
+    imgui.begin("##timeline", None, _FLAGS)
+    try:
+        if imgui.button("Pause" if settings.playing else " Play ", imgui.ImVec2(48, h - 16)):
+            settings.playing = not settings.playing
+        imgui.same_line()
+        _track(settings, state, rect)
+    finally:
+        imgui.end()
+
+
+def _track(settings: ViewerSettings, state: AppState, rect: tuple) -> None:
+    n = state.num_frames
+    x0, x1 = track_span(rect)
+    top, bottom = rect[1] + 6.0, rect[1] + rect[3] - 6.0
+    imgui.set_cursor_screen_pos(imgui.ImVec2(x0 - 6, top))
+    imgui.invisible_button("##track", imgui.ImVec2(max(x1 - x0 + 12, 1), max(bottom - top, 1)))
+    if imgui.is_item_active():
+        settings.frame = frame_at(imgui.get_io().mouse_pos.x, x0, x1, n)
+        settings.playing = False
+    dl = imgui.get_window_draw_list()
+    col = imgui.get_color_u32
+    mid = (top + bottom) / 2
+    dl.add_rect_filled(imgui.ImVec2(x0, mid - 3), imgui.ImVec2(x1, mid + 3),
+                       col(imgui.ImVec4(0.25, 0.27, 0.3, 1)), 3.0)
+    step = max(1, int(np.ceil(n / max((x1 - x0) / 6.0, 1))))  # ticks at least 6 px apart
+    tick = col(imgui.ImVec4(0.55, 0.57, 0.6, 1))
+    for f in range(0, n, step):
+        tx = track_x(f, x0, x1, n)
+        big = f % (step * 5) == 0
+        dl.add_line(imgui.ImVec2(tx, mid + 5), imgui.ImVec2(tx, mid + (11 if big else 8)), tick)
+    shot = state.shot
+    if shot is not None:  # hit frame: red marker across the track
+        hx = track_x(shot.hit_frame, x0, x1, n)
+        red = col(imgui.ImVec4(0.95, 0.2, 0.2, 1))
+        dl.add_line(imgui.ImVec2(hx, top), imgui.ImVec2(hx, bottom), red, 2.0)
+        dl.add_triangle_filled(imgui.ImVec2(hx - 5, top), imgui.ImVec2(hx + 5, top), imgui.ImVec2(hx, top + 7), red)
+    cx = track_x(settings.frame, x0, x1, n)
+    dl.add_circle_filled(imgui.ImVec2(cx, mid), 7.0, col(imgui.ImVec4(0.95, 0.95, 0.95, 1)))
+    dl.add_text(imgui.ImVec2(x0, top - 4), col(imgui.ImVec4(0.8, 0.8, 0.8, 1)),
+                f"{settings.frame:5.1f}/{n - 1}  x{settings.playback_rate:.2f}")

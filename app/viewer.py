@@ -1,0 +1,273 @@
+"""The viewer's main loop: wires the window, ImGui, the input handling, the
+per-frame update, render submission and capture together. Each piece lives in
+its own module; this one only orders them:
+
+    events -> UI (panel, timeline: write settings) -> update (engine)
+    -> SceneView -> SceneRenderer -> compose scene + UI -> present
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import moderngl
+import numpy as np
+
+from app import capture
+from app.camera import OrbitCamera
+from app.interaction import Interaction
+from app.panel import PANEL_WIDTH, draw_panel, load_pcpad
+from app.settings import ViewerSettings
+from app.state import AppState
+from app.stats import FrameStats
+from app.submit import build_scene_view
+from app.timeline import TIMELINE_HEIGHT, draw_timeline
+from app.update import default_target, load_library, pose_at, ball_at, update
+
+_BLIT_VS = """
+#version 330
+in vec2 in_pos; out vec2 uv;
+void main() { uv = in_pos * 0.5 + 0.5; gl_Position = vec4(in_pos, 0.0, 1.0); }
+"""
+_BLIT_FS = """
+#version 330
+uniform sampler2D tex; in vec2 uv; out vec4 color;
+void main() { color = vec4(texture(tex, uv).rgb, 1.0); }
+"""
+BACKGROUND = (0.11, 0.12, 0.14, 1.0)
+
+
+def layout(window_size: tuple[int, int]) -> dict[str, tuple]:
+    """Rectangles ``(x, y, w, h)`` in window pixels (top-left origin): the panel
+    docked on the right, the timeline under the viewport, the 3D viewport in
+    what is left (never under the panel)."""
+    W, H = max(int(window_size[0]), 1), max(int(window_size[1]), 1)
+    panel_w = min(PANEL_WIDTH, max(W // 2, 1))
+    timeline_h = min(TIMELINE_HEIGHT, max(H // 4, 1))
+    view_w, view_h = max(W - panel_w, 1), max(H - timeline_h, 1)
+    return {"panel": (W - panel_w, 0, panel_w, H), "timeline": (0, view_h, view_w, timeline_h),
+            "viewport": (0, 0, view_w, view_h)}
+
+
+class App:
+    def __init__(self, size=(1280, 720), headless: bool = False, manifest=None, started_at=None):
+        from imgui_bundle import imgui, implot
+        from app.imgui_gl import ImguiRenderer
+        from app.window import Window
+        self.stats = FrameStats(started_at)
+        self.headless = headless
+        self.window = Window(size, visible=not headless)
+        self.stats.mark_window()
+        self.ctx: moderngl.Context = self.window.ctx
+        self.imgui_ctx = imgui.create_context()
+        self.implot_ctx = implot.create_context()
+        io = imgui.get_io()
+        io.set_ini_filename("")
+        io.display_size = imgui.ImVec2(*self.window.size)
+        self.gui = ImguiRenderer(self.ctx)
+        self.settings, self.state, self.camera = ViewerSettings(), AppState(), OrbitCamera()
+        self.interaction = Interaction(self.settings, self.state, self.camera, io)
+        self.extras: dict = {"pcpad": load_pcpad()}
+        self._install_callbacks()
+        if load_library(self.state, manifest):
+            self.settings.target = default_target(self.state)
+        self.scene_renderer = self._make_scene_renderer()
+        self._blit_prog = self.ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_BLIT_FS)
+        quad = self.ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
+        self._blit_vao = self.ctx.vertex_array(self._blit_prog, [(quad, "2f", "in_pos")])
+        self.frame_fbo = self.scene_fbo = None
+        self.frame_index = 0
+        self._last_time = time.perf_counter()
+        self._pending_screenshots: list[Path] = []
+        self._pending_exports: list[Path] = []
+
+    # -- setup ----------------------------------------------------------------
+    def _make_scene_renderer(self):
+        try:
+            from app.render.scene import SceneRenderer
+        except ModuleNotFoundError as e:
+            self.state.status["renderer"] = f"not available ({e.name})"
+            return None
+        if self.state.rig is None:
+            self.state.status["renderer"] = "no rig loaded"
+            return None
+        try:
+            renderer = SceneRenderer(self.ctx, self.state.rig)
+        except Exception as e:  # a bad asset: say so, keep the window
+            self.state.status["renderer"] = f"failed: {type(e).__name__}: {e}"
+            return None
+        self.state.status["renderer"] = "ok"
+        return renderer
+
+    def _install_callbacks(self) -> None:
+        glfw, h, it = self.window.glfw, self.window.handle, self.interaction
+        glfw.set_cursor_pos_callback(h, lambda _w, x, y: it.mouse_move(x, y))
+        glfw.set_mouse_button_callback(h, lambda _w, b, action, mods: it.mouse_button(b, action == glfw.PRESS))
+        glfw.set_scroll_callback(h, lambda _w, dx, dy: it.scroll(dy, dx))
+        glfw.set_key_callback(h, lambda _w, key, sc, action, mods: it.key(key, action != glfw.RELEASE, mods))
+        glfw.set_char_callback(h, lambda _w, cp: it.char(cp))
+
+    def _framebuffers(self, window_size, viewport) -> None:
+        """(Re)create the frame and scene framebuffers when sizes change."""
+        fw, fh = self.window.framebuffer_size if not self.headless else window_size
+        fw, fh = max(fw, 1), max(fh, 1)
+        if self.frame_fbo is None or self.frame_fbo.size != (fw, fh):
+            if self.frame_fbo is not None:
+                self.frame_fbo.release()
+            self.frame_fbo = self.ctx.simple_framebuffer((fw, fh), components=4)
+        vw, vh = max(int(viewport[2]), 1), max(int(viewport[3]), 1)
+        if self.scene_fbo is None or self.scene_fbo.size != (vw, vh):
+            if self.scene_fbo is not None:
+                for a in self.scene_fbo.color_attachments:
+                    a.release()
+                self.scene_fbo.depth_attachment.release()
+                self.scene_fbo.release()
+            color = self.ctx.texture((vw, vh), 4)
+            color.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self.scene_fbo = self.ctx.framebuffer([color], self.ctx.depth_renderbuffer((vw, vh)))
+
+    # -- one frame --------------------------------------------------------------
+    def frame(self, dt: float | None = None) -> None:
+        from imgui_bundle import imgui
+        t0 = time.perf_counter()
+        dt = (t0 - self._last_time) if dt is None else dt
+        self._last_time = t0
+        self.window.poll()
+        size = self.window.size
+        rects = layout(size)
+        self.state.viewport = rects["viewport"]
+        io = imgui.get_io()
+        io.display_size = imgui.ImVec2(*size)
+        io.delta_time = max(float(dt), 1e-4)
+
+        imgui.new_frame()
+        draw_panel(self.settings, self.state, rects["panel"], self.extras)
+        draw_timeline(self.settings, self.state, rects["timeline"])
+        imgui.render()
+        t_ui = time.perf_counter()
+
+        update(self.state, self.settings, dt)
+        t_engine = time.perf_counter()
+
+        self._framebuffers(size, rects["viewport"])
+        self.render_scene(self.scene_fbo)
+        self.ctx.finish()  # honest render timing (llvmpipe otherwise works at swap)
+        t_render = time.perf_counter()
+
+        self._compose(rects["viewport"], imgui.get_draw_data())
+        self._captures()
+        self.window.present(self.frame_fbo)
+        self.window.set_cursor(self.state.cursor)
+        t_end = time.perf_counter()
+
+        r = self.state.readouts
+        r.render_ms, r.frame_ms = (t_render - t_engine) * 1e3, (t_end - t0) * 1e3
+        r.fps = 0.9 * r.fps + 0.1 * (1.0 / max(dt, 1e-4)) if r.fps else 1.0 / max(dt, 1e-4)
+        self.stats.record(frame=r.frame_ms, ui=(t_ui - t0) * 1e3, engine=(t_engine - t_ui) * 1e3,
+                          render=r.render_ms, compose=(t_end - t_render) * 1e3)
+        self.frame_index += 1
+
+    def render_scene(self, fbo) -> bool:
+        """Draw the 3D scene into ``fbo``; on failure keep the last image and say why."""
+        if self.scene_renderer is None or self.state.rig is None:
+            fbo.use()
+            fbo.clear(*BACKGROUND)
+            return False
+        try:
+            view = build_scene_view(self.state, self.settings, self.camera, fbo.size)
+            self.scene_renderer.render(view, fbo=fbo)
+        except Exception as e:
+            self.state.report(f"render: {type(e).__name__}: {e}")
+            return False
+        return True
+
+    def _compose(self, viewport, draw_data) -> None:
+        """Scene texture into its viewport rectangle of the frame, then the UI over it."""
+        fbo, ctx = self.frame_fbo, self.ctx
+        fbo.use()
+        fbo.clear(*BACKGROUND)
+        x, y, w, h = viewport
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        ctx.viewport = (int(x), int(fbo.height - y - h), int(w), int(h))
+        self.scene_fbo.color_attachments[0].use(0)
+        self._blit_vao.render(moderngl.TRIANGLE_STRIP)
+        ctx.viewport = (0, 0, fbo.width, fbo.height)
+        self.gui.render(draw_data, fbo)
+
+    # -- actions other modules ask for -------------------------------------------
+    def scrub(self, frame: float) -> None:
+        self.settings.playing = False
+        self.settings.frame = float(np.clip(frame, 0, self.state.num_frames - 1))
+
+    def request_screenshot(self, path=None) -> None:
+        self._pending_screenshots.append(Path(path) if path else capture.default_screenshot_path())
+
+    def request_export(self, out_dir=None) -> None:
+        self._pending_exports.append(Path(out_dir) if out_dir else capture.default_export_dir())
+
+    def pcpad_drag(self, scores, last: bool) -> None:
+        """Scripted PC-pad drag: handed to ``app.pcpad`` if it supports it."""
+        pad = self.extras.get("pcpad")
+        fn = getattr(pad, "set_scores", None) if pad is not None else None
+        if fn is None:
+            self.state.report("pc pad: not available for scripted drags")
+            return
+        try:
+            fn(self.state, np.asarray(scores, float), final=last)
+        except Exception as e:
+            self.state.report(f"pc pad: {type(e).__name__}: {e}")
+
+    def screenshot(self) -> np.ndarray:
+        """The last composed frame ``(h, w, 3)`` uint8."""
+        return capture.read_rgb(self.frame_fbo)
+
+    def _captures(self) -> None:
+        if self.settings.screenshot_requested:
+            self.settings.screenshot_requested = False
+            self.request_screenshot()
+        if self.settings.export_requested:
+            self.settings.export_requested = False
+            self.request_export()
+        while self._pending_screenshots:
+            path = self._pending_screenshots.pop(0)
+            try:
+                self.extras["last_capture"] = str(capture.write_png(path, self.screenshot()))
+            except Exception as e:
+                self.state.report(f"screenshot: {type(e).__name__}: {e}")
+        while self._pending_exports:
+            out = self._pending_exports.pop(0)
+            try:
+                self.extras["last_capture"] = str(self.export_shot(out))
+            except Exception as e:
+                self.state.report(f"export: {type(e).__name__}: {e}")
+
+    def export_shot(self, out_dir) -> Path:
+        """Render every frame of the adapted shot (viewport size) to ``out_dir``."""
+        state, settings = self.state, self.settings
+        keep = settings.frame
+
+        def images():
+            try:
+                for f in range(state.num_frames):
+                    pose_at(state, float(f))
+                    ball_at(state, float(f))
+                    self.render_scene(self.scene_fbo)
+                    yield capture.read_rgb(self.scene_fbo)
+            finally:
+                pose_at(state, keep)
+                ball_at(state, keep)
+        return capture.export_frames(images(), out_dir, state.fps)
+
+    # -- loops ------------------------------------------------------------------
+    def run(self) -> None:
+        while not self.window.should_close():
+            self.frame()
+
+    def close(self) -> None:
+        from imgui_bundle import imgui, implot
+        try:
+            self.gui.release()
+        finally:
+            implot.destroy_context(self.implot_ctx)
+            imgui.destroy_context(self.imgui_ctx)
+            self.window.close()

@@ -1,0 +1,123 @@
+"""The OS window and GL context: a glfw window (visible, or hidden for headless
+runs), starting a private Xvfb when there is no display at all (CI).
+
+Everything is drawn into an offscreen *frame* framebuffer first and then
+blitted to the window: screenshots and headless runs read that framebuffer,
+which is defined even when the window is hidden or covered.
+"""
+from __future__ import annotations
+
+import atexit
+import os
+import shutil
+import subprocess
+import time
+
+import moderngl
+
+
+class DisplayError(RuntimeError):
+    """No way to open a GL window (no display and no Xvfb)."""
+
+
+_xvfb: subprocess.Popen | None = None
+
+
+def ensure_display() -> None:
+    """Start ``Xvfb`` (a free display number) if ``DISPLAY`` is unset; once per process."""
+    global _xvfb
+    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
+        return
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        raise DisplayError("no DISPLAY and no Xvfb: install xvfb or run under a display")
+    read_fd, write_fd = os.pipe()
+    # -displayfd picks a free display number and writes it to the pipe: no clash
+    # with other Xvfb servers running on the same machine.
+    _xvfb = subprocess.Popen([exe, "-displayfd", str(write_fd), "-screen", "0", "1920x1080x24",
+                              "-nolisten", "tcp"], pass_fds=(write_fd,),
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(write_fd)
+    number = b""
+    deadline = time.monotonic() + 10
+    with os.fdopen(read_fd, "rb") as pipe:
+        while not number.endswith(b"\n") and time.monotonic() < deadline:
+            chunk = pipe.read(1)
+            if not chunk:
+                break
+            number += chunk
+    if not number.strip():
+        _xvfb.kill()
+        raise DisplayError("Xvfb did not start")
+    os.environ["DISPLAY"] = ":" + number.decode().strip()
+    atexit.register(_stop_xvfb)
+
+
+def _stop_xvfb() -> None:
+    global _xvfb
+    if _xvfb is not None and _xvfb.poll() is None:
+        _xvfb.terminate()
+        try:
+            _xvfb.wait(3)
+        except subprocess.TimeoutExpired:
+            _xvfb.kill()
+    _xvfb = None
+
+
+class Window:
+    """A glfw window with a current GL 3.3 core context wrapped by moderngl."""
+
+    def __init__(self, size: tuple[int, int], title: str = "Hitpoint", visible: bool = True):
+        import glfw
+        self.glfw = glfw
+        ensure_display()
+        if not glfw.init():
+            raise DisplayError("glfw could not initialise (no usable display)")
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        glfw.window_hint(glfw.VISIBLE, visible)
+        glfw.window_hint(glfw.SAMPLES, 0)
+        self.handle = glfw.create_window(int(size[0]), int(size[1]), title, None, None)
+        if not self.handle:
+            glfw.terminate()
+            raise DisplayError("glfw could not create a GL 3.3 window")
+        glfw.make_context_current(self.handle)
+        glfw.swap_interval(1 if visible else 0)
+        self.ctx = moderngl.create_context()
+        self.visible = visible
+        self._cursors = {"arrow": None, "hand": glfw.create_standard_cursor(glfw.HAND_CURSOR),
+                         "move": glfw.create_standard_cursor(glfw.RESIZE_ALL_CURSOR)}
+        self._cursor = "arrow"
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """Window size in screen coordinates (what mouse positions use)."""
+        return tuple(self.glfw.get_window_size(self.handle))
+
+    @property
+    def framebuffer_size(self) -> tuple[int, int]:
+        return tuple(self.glfw.get_framebuffer_size(self.handle))
+
+    def set_cursor(self, name: str) -> None:
+        if name != self._cursor:
+            self._cursor = name
+            self.glfw.set_cursor(self.handle, self._cursors.get(name))
+
+    def should_close(self) -> bool:
+        return bool(self.glfw.window_should_close(self.handle))
+
+    def poll(self) -> None:
+        self.glfw.poll_events()
+
+    def present(self, frame_fbo: moderngl.Framebuffer) -> None:
+        """Blit the finished frame to the window and swap."""
+        self.ctx.copy_framebuffer(self.ctx.screen, frame_fbo)
+        self.glfw.swap_buffers(self.handle)
+
+    def close(self) -> None:
+        if self.handle:
+            self.glfw.destroy_window(self.handle)
+            self.handle = None
+        self.glfw.terminate()
