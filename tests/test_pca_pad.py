@@ -1,0 +1,96 @@
+"""The PC-score pad: logic without imgui, and the widget through a headless imgui frame."""
+import numpy as np
+import pytest
+
+from app import pcpad
+from app.state import AppState
+from engine import quat
+from engine.library import Shot
+from engine.skeleton import clip_fk
+from test_pca import smooth_random_clip
+
+
+@pytest.fixture()
+def state(rig):
+    st = AppState()
+    st.rig = rig
+    shots = []
+    for i in range(2):
+        c = smooth_random_clip(rig, 60, seed=60 + i)
+        shots.append(Shot(f"syn{i}", f"s{i}.bvh", 35, "", rig.skeleton, c, rig.bat_joint))
+    st.shots, st.shot_index = shots, 0
+    return st
+
+
+def test_marker_sets_the_pose_of_those_scores(state, rig):
+    pcpad.set_scores(state, [1.0, -0.5])
+    pad = state.pc_pad
+    pose = pcpad.active_pose(state)
+    assert pad.live and pose is not None
+    root, local = pad.pca.pose_from_scores(np.array([1.0, -0.5]))
+    from engine.skeleton import Clip
+    g_rot, g_pos = clip_fk(rig.skeleton, Clip(root[None], local[None]))
+    assert np.allclose(pose.global_positions, g_pos[0], atol=1e-9)
+    assert np.all(quat.angle_between(pose.global_rotations, g_rot[0]) < 1e-5)
+    pcpad.release(state)
+    assert pcpad.active_pose(state) is None
+
+
+def test_draw_mode_records_a_timed_animation(state):
+    pad = pcpad.sync(state)
+    pad.mode = "draw"
+    pad.fix_hand = pad.plant_feet = False
+    for i in range(16):
+        pcpad.advance(pad, 1 / 30)
+        pcpad.set_scores(state, [np.cos(i / 5), np.sin(i / 5)], final=(i == 15))
+    assert pad.anim is not None and pad.playing and pad.path_kind == "drawn"
+    assert pad.anim.num_frames == 16                  # 15 frame intervals of drawing at 30 fps
+    assert np.allclose(pad.path[0], [1, 0]) and pcpad.active_pose(state) is not None
+
+
+def test_presets_and_shot_change(state):
+    pcpad.apply_preset(state, "toned_down", 0.5)
+    pad = state.pc_pad
+    assert pad.anim.num_frames == 60 and pad.path_kind == "toned_down"
+    pcpad.advance(pad, 0.5)
+    assert pad.pose is not None and np.allclose(pad.marker, pad.path[15])
+    state.shot_index = 1
+    assert pcpad.active_pose(state) is None          # the pose belonged to the other shot
+    pcpad.sync(state)
+    assert pad.anim is None and pad.shot_key[1] == "syn1"
+    with pytest.raises(ValueError):
+        pcpad.set_scores(state, [np.nan, 0])
+
+
+def test_widget_draws_headless_and_drags(state):
+    from imgui_bundle import imgui, implot
+    ctx = imgui.create_context()
+    pctx = implot.create_context()
+    try:
+        io = imgui.get_io()
+        io.set_ini_filename("")
+        io.display_size = imgui.ImVec2(800, 900)
+        io.delta_time = 1 / 30
+        io.backend_flags |= imgui.BackendFlags_.renderer_has_textures
+
+        def frame(pos, down):
+            io.add_mouse_pos_event(*pos)
+            io.add_mouse_button_event(0, down)
+            imgui.new_frame()
+            imgui.set_next_window_pos(imgui.ImVec2(0, 0))
+            imgui.set_next_window_size(imgui.ImVec2(360, 880))
+            imgui.begin("panel")
+            changed = pcpad.draw_pc_pad(state)
+            imgui.end()
+            imgui.render()
+            return changed
+
+        for _ in range(3):
+            frame((5, 5), False)
+        changed = [frame((150 + 3 * i, 200 + 2 * i), True) for i in range(4)]
+        frame((160, 210), False)
+        assert any(changed) and state.pc_pad.live and pcpad.active_pose(state) is not None
+        assert state.errors == 0
+    finally:
+        implot.destroy_context(pctx)
+        imgui.destroy_context(ctx)
