@@ -108,14 +108,19 @@ class App:
         glfw.set_char_callback(h, lambda _w, cp: it.char(cp))
 
     def _framebuffers(self, window_size, viewport) -> None:
-        """(Re)create the frame and scene framebuffers when sizes change."""
-        fw, fh = self.window.framebuffer_size if not self.headless else window_size
-        fw, fh = max(fw, 1), max(fh, 1)
-        if self.frame_fbo is None or self.frame_fbo.size != (fw, fh):
-            if self.frame_fbo is not None:
-                self.frame_fbo.release()
-            self.frame_fbo = self.ctx.simple_framebuffer((fw, fh), components=4)
-        vw, vh = max(int(viewport[2]), 1), max(int(viewport[3]), 1)
+        """(Re)create the frame and scene framebuffers when sizes change. A
+        visible window composes straight into its back buffer; a hidden one
+        into an offscreen frame that screenshots read (and nothing is shown)."""
+        if not self.headless:
+            self.frame_fbo = self.ctx.screen
+        else:
+            fw, fh = max(window_size[0], 1), max(window_size[1], 1)
+            if self.frame_fbo is None or self.frame_fbo.size != (fw, fh):
+                if self.frame_fbo is not None:
+                    self.frame_fbo.release()
+                self.frame_fbo = self.ctx.simple_framebuffer((fw, fh), components=4)
+        k = self.frame_fbo.width / max(window_size[0], 1)   # HiDPI: framebuffer pixels per window pixel
+        vw, vh = max(round(viewport[2] * k), 1), max(round(viewport[3] * k), 1)
         if self.scene_fbo is None or self.scene_fbo.size != (vw, vh):
             if self.scene_fbo is not None:
                 for a in self.scene_fbo.color_attachments:
@@ -127,7 +132,9 @@ class App:
             self.scene_fbo = self.ctx.framebuffer([color], self.ctx.depth_renderbuffer((vw, vh)))
 
     # -- one frame --------------------------------------------------------------
-    def frame(self, dt: float | None = None) -> None:
+    def frame(self, dt: float | None = None, render: bool = True) -> None:
+        """One loop iteration. ``render=False`` runs input, UI and update only
+        (long randomised tests)."""
         from imgui_bundle import imgui
         t0 = time.perf_counter()
         dt = (t0 - self._last_time) if dt is None else dt
@@ -148,6 +155,10 @@ class App:
 
         update(self.state, self.settings, dt)
         t_engine = time.perf_counter()
+        if not render:
+            self.window.set_cursor(self.state.cursor)
+            self.frame_index += 1
+            return
 
         self._framebuffers(size, rects["viewport"])
         self.render_scene(self.scene_fbo)
@@ -156,7 +167,8 @@ class App:
 
         self._compose(rects["viewport"], imgui.get_draw_data())
         self._captures()
-        self.window.present(self.frame_fbo)
+        if not self.headless:
+            self.window.swap()
         self.window.set_cursor(self.state.cursor)
         t_end = time.perf_counter()
 
@@ -186,9 +198,10 @@ class App:
         fbo, ctx = self.frame_fbo, self.ctx
         fbo.use()
         fbo.clear(*BACKGROUND)
-        x, y, w, h = viewport
+        k = fbo.width / max(self.window.size[0], 1)   # framebuffer pixels per window pixel (HiDPI)
+        x, y, w, h = (round(v * k) for v in viewport)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-        ctx.viewport = (int(x), int(fbo.height - y - h), int(w), int(h))
+        ctx.viewport = (x, fbo.height - y - h, w, h)
         self.scene_fbo.color_attachments[0].use(0)
         self._blit_vao.render(moderngl.TRIANGLE_STRIP)
         ctx.viewport = (0, 0, fbo.width, fbo.height)

@@ -1,9 +1,8 @@
 """The OS window and GL context: a glfw window (visible, or hidden for headless
 runs), starting a private Xvfb when there is no display at all (CI).
 
-Everything is drawn into an offscreen *frame* framebuffer first and then
-blitted to the window: screenshots and headless runs read that framebuffer,
-which is defined even when the window is hidden or covered.
+A hidden (headless) window's back buffer is not guaranteed to hold pixels,
+so headless frames are composed into an offscreen framebuffer instead.
 """
 from __future__ import annotations
 
@@ -111,9 +110,7 @@ class Window:
     def poll(self) -> None:
         self.glfw.poll_events()
 
-    def present(self, frame_fbo: moderngl.Framebuffer) -> None:
-        """Blit the finished frame to the window and swap."""
-        self.ctx.copy_framebuffer(self.ctx.screen, frame_fbo)
+    def swap(self) -> None:
         self.glfw.swap_buffers(self.handle)
 
     def close(self) -> None:

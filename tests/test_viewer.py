@@ -1,0 +1,223 @@
+"""The viewer, headless (hidden glfw window; a private Xvfb when there is no
+display): the default scene's pixels, dragging the target through the mouse
+path, scrubbing, and the panel never covering the 3D view."""
+import numpy as np
+import pytest
+
+from app.picking import TARGET_PLANE_Z
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+SIZE = (1280, 720)
+
+
+@pytest.fixture(scope="module")
+def app():
+    from app.viewer import App
+    a = App(SIZE, headless=True)
+    for _ in range(3):
+        a.frame(dt=1 / 60)
+    yield a
+    a.close()
+
+
+def run(app, frames=1, player=None, start=0):
+    for i in range(frames):
+        if player is not None:
+            player.apply(app, start + i)
+        app.frame(dt=1 / 60)
+
+
+def render_view(app, edit=None):
+    """Render the current SceneView (optionally edited) into the scene framebuffer."""
+    from app.capture import read_rgb
+    from app.submit import build_scene_view
+    view = build_scene_view(app.state, app.settings, app.camera, app.scene_fbo.size)
+    if edit is not None:
+        edit(view)
+    app.scene_renderer.render(view, fbo=app.scene_fbo)
+    return read_rgb(app.scene_fbo).astype(int)
+
+
+def changed(a, b, threshold=30):
+    return np.abs(a - b).sum(axis=-1) > threshold
+
+
+def pixel(app, world):
+    return app.interaction.world_to_pixel(np.asarray(world, float))
+
+
+def near(mask, px, radius):
+    """Does ``mask`` have changed pixels within ``radius`` of pixel ``px``?"""
+    x, y = int(round(px[0])), int(round(px[1]))
+    h, w = mask.shape
+    return mask[max(y - radius, 0):min(y + radius + 1, h), max(x - radius, 0):min(x + radius + 1, w)].any()
+
+
+def test_pieces_are_real(app):
+    assert app.scene_renderer is not None, app.state.status
+    assert app.state.shots and app.state.adaptation is not None, app.state.messages
+    assert app.state.status.get("renderer") == "ok"
+
+
+def test_default_scene_has_batsman_ball_pitch_and_panel(app):
+    from app.viewer import layout
+    app.settings.overlays.ghost = "off"
+    app.scrub(app.state.shot.hit_frame - 1)
+    run(app, 2)
+    assert app.state.errors == 0, app.state.messages
+    base = render_view(app)
+    vx, vy, vw, vh = app.state.viewport
+    # batsman: moving him far away changes pixels around his chest and hips
+    def away(view):
+        view.skin_matrices = view.skin_matrices.copy()
+        view.skin_matrices[:, 0, 3] += 1e5
+    gone = changed(base, render_view(app, away))
+    pos = app.state.pose.global_positions
+    names = app.state.rig.skeleton.names
+    for joint in ("Spine1", "Hips", "Head"):
+        assert near(gone, pixel(app, pos[names.index(joint)]), 6), joint
+    assert 0.001 < gone.mean() < 0.5
+    # ball: hiding it changes pixels where it projects
+    ball = app.state.ball_position
+    no_ball = changed(base, render_view(app, lambda v: setattr(v, "ball_position", None)))
+    assert near(no_ball, pixel(app, ball), 4)
+    # pitch: hiding it changes the ground in front of the batsman, not the sky
+    no_pitch = changed(base, render_view(app, lambda v: setattr(v, "show_pitch", False)))
+    ground, sky = pixel(app, (-100.0, 0.0, 0.0)), pixel(app, (0.0, 260.0, -200.0))
+    for p in (ground, sky):
+        assert vx <= p[0] < vx + vw and vy <= p[1] < vy + vh, p
+    assert near(no_pitch, ground, 3)
+    assert not near(no_pitch, sky, 3)
+    # the composed frame: panel on the right, the scene left of it, untouched by it
+    shot = app.screenshot()
+    rects = layout(SIZE)
+    px, py, pw, ph = rects["panel"]
+    assert vx + vw <= px
+    panel = shot[:, px + 2:].astype(int)
+    assert panel.std() > 10                       # text and widgets drawn
+    scene_part = shot[vy:vy + vh, :vx + vw].astype(int)
+    assert np.abs(scene_part - base[:vh, :vw]).max() <= 2   # the scene shows unscaled, uncovered
+    app.settings.overlays.ghost = "mesh"
+
+
+def test_scripted_drag_moves_the_adapted_bat(app):
+    from app.script import ScriptPlayer
+    from app.update import choose
+    start = np.asarray(app.settings.target, float).copy()
+    goal = start + np.array([-25.0, 18.0, 0.0])
+    player = ScriptPlayer([{"type": "drag_target", "frame": 0, "to": goal.tolist(), "frames": 12}])
+    run(app, player.last_frame + 2, player)
+    s = app.state
+    assert np.allclose(app.settings.target, goal, atol=0.5), (app.settings.target, goal)
+    assert not s.dragging_target
+    index, desired = choose(s, app.settings)
+    assert index == s.shot_index and np.allclose(desired, s.desired_hit_point)
+    bat = s.adaptation.global_positions[s.shot.hit_frame, s.rig.bat_joint]
+    assert np.linalg.norm(bat - desired) <= max(s.adaptation.bat_error_cm, 0) + 1e-6
+    assert s.adaptation.bat_error_cm < 1.0
+    # the desired point moved with the ball path
+    app.settings.target = start
+    run(app, 1)
+    assert not np.allclose(s.desired_hit_point, desired)
+
+
+def test_drag_starts_only_on_the_target_and_shows_a_hand(app):
+    it = app.interaction
+    px = it.target_pixel()
+    it.mouse_move(*px)
+    run(app, 1)
+    assert app.state.hover_target and app.state.cursor == "hand"
+    it.mouse_move(px[0] + 200, px[1] + 150)       # empty space: orbit, target stays
+    run(app, 1)
+    assert not app.state.hover_target
+    before_t, before_yaw = app.settings.target.copy(), app.camera.yaw
+    it.mouse_button(0, True)
+    it.mouse_move(px[0] + 260, px[1] + 150)
+    it.mouse_button(0, False)
+    run(app, 1)
+    assert np.allclose(app.settings.target, before_t) and app.camera.yaw != before_yaw
+    app.camera.reset()
+    run(app, 1)
+
+
+def test_scrubbing_changes_the_frame_shown(app):
+    from app.timeline import track_span, track_x
+    from app.viewer import layout
+    app.scrub(0)
+    run(app, 2)
+    first = app.screenshot().copy()
+    pose0 = app.state.pose.global_positions.copy()
+    # click on the timeline track at the hit frame
+    rect = layout(SIZE)["timeline"]
+    x0, x1 = track_span(rect)
+    hit = app.state.shot.hit_frame
+    x, y = track_x(hit, x0, x1, app.state.num_frames), rect[1] + rect[3] / 2
+    app.interaction.mouse_move(x, y)
+    run(app, 1)
+    app.interaction.mouse_button(0, True)
+    run(app, 1)
+    app.interaction.mouse_button(0, False)
+    run(app, 1)
+    assert app.settings.frame == hit
+    assert not np.allclose(app.state.pose.global_positions, pose0)
+    assert changed(first.astype(int), app.screenshot().astype(int)).sum() > 200
+
+
+def test_keys_drive_playback(app):
+    from app.interaction import KEY_NAMES
+    it, s = app.interaction, app.settings
+
+    def press(name):
+        it.key(KEY_NAMES[name], True)
+        it.key(KEY_NAMES[name], False)
+    press("h")
+    assert s.frame == app.state.shot.hit_frame and not s.playing
+    press("right")
+    assert s.frame == app.state.shot.hit_frame + 1
+    press("left")
+    press("left")
+    assert s.frame == app.state.shot.hit_frame - 1
+    speed = s.speed
+    press("]")
+    assert s.speed > speed
+    press("[")
+    assert abs(s.speed - speed) < 1e-9
+    press("s")
+    assert s.slow_motion
+    press("s")
+    press("space")
+    assert s.playing
+    run(app, 3)
+    assert s.frame != app.state.shot.hit_frame - 1
+    press("space")
+
+
+def test_engine_error_keeps_last_good_state(app, monkeypatch):
+    s = app.state
+    good = s.adaptation
+    adapter = s.adapters[s.shot_index]
+
+    def boom(*a, **k):
+        raise RuntimeError("solver exploded")
+    monkeypatch.setattr(adapter, "adapt", boom)
+    app.settings.falloff = 123.0
+    run(app, 2)
+    assert s.adaptation is good
+    assert "solver exploded" in s.messages[-1][1]
+    monkeypatch.undo()
+    app.settings.falloff = 90.0
+    run(app, 1)
+    assert s.adaptation is not good
+
+
+def test_bad_library_file_is_reported_not_fatal(app, tmp_path):
+    from app.update import load_library
+    bad = tmp_path / "library.json"
+    bad.write_text("[{\"name\": \"x\", \"file\": \"missing.bvh\", \"hit_frame\": 3}]")
+    shots = app.state.shots
+    assert not load_library(app.state, bad)
+    assert app.state.shots is shots
+    assert "library" in app.state.messages[-1][1]
+    app.state.status["library"] = "ok"
+    run(app, 1)
