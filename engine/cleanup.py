@@ -99,8 +99,16 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
     t_pos, t_rot = right_hand_targets(rig, g_rot, g_pos, src_global_rot, src_global_pos)
     chain = rig.chains["right_arm"]
     hand = chain.effector
-    solve_chain_position(rig, skeleton, clip, chain.joints, hand, t_pos, g_rot, g_pos,
-                         iterations, tolerance)
+    try:  # the IK engineer's compiled CCD when it is there (same rules as the adaptation)
+        from . import ccd
+        arrays = ccd.chain_arrays(rig, "right_arm")
+        p = arrays.parent
+        solved, _, _ = ccd.solve(arrays, g_rot[:, p], g_pos[:, p], clip.local_rotations[:, arrays.joints],
+                                 t_pos, tolerance=tolerance, iterations=max(iterations, 200))
+        clip.local_rotations[:, arrays.joints] = solved
+    except ImportError:
+        solve_chain_position(rig, skeleton, clip, chain.joints, hand, t_pos, g_rot, g_pos,
+                             iterations, tolerance)
     # orientation: the hand's local rotation that gives the target, within its limits
     g_rot, g_pos = clip_fk(skeleton, clip)
     parent = skeleton.parents[hand]
@@ -112,12 +120,24 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
     return err_cm, err_deg
 
 
+def _euler_in_limits(local: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """ZYX Euler angles ``(F, 3)`` of ``local (F, 4)`` on whichever of the two
+    branches lies closer to ``limits (3, 2)`` (to_euler keeps the middle angle
+    in [-90, 90]; an elbow flexed by 120 degrees needs the other branch)."""
+    e1 = quat.to_euler(local, "ZYX")
+    e2 = (np.stack([e1[:, 0] + 180.0, 180.0 - e1[:, 1], e1[:, 2] + 180.0], -1) + 180.0) % 360.0 - 180.0
+
+    def outside(e):
+        return (np.maximum(limits[:, 0] - e, 0) + np.maximum(e - limits[:, 1], 0)).sum(-1)
+    return np.where((outside(e2) < outside(e1) - 1e-9)[:, None], e2, e1)
+
+
 def _constrain(rig: Rig, j: int, local: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """Local rotations ``(F, 4)`` of joint j with locked axes put back to ``reference``'s
     and free axes clamped to the limits (widened to include the reference, so the
     constraint never makes a pose worse than it was)."""
-    e = quat.to_euler(local, "ZYX")
-    ref = quat.to_euler(reference, "ZYX")
+    e = _euler_in_limits(local, rig.limits[j])
+    ref = _euler_in_limits(reference, rig.limits[j])
     free = rig.dof[j]
     e = np.where(free, e, ref)
     lo = np.minimum(rig.limits[j, :, 0], ref)
