@@ -30,21 +30,26 @@ def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, extras: d
     imgui.set_next_window_size(imgui.ImVec2(w, h))
     imgui.begin("Hitpoint", None, _WINDOW_FLAGS)
     try:
-        _shot_section(settings, state)
-        _solver_section(settings)
-        _playback_section(settings, state)
-        _overlay_section(settings)
+        _messages(state)
+        _settings_section(settings, state)
         _readouts_section(settings, state)
         _blend_plot(settings, state)
         _pc_pad(state, extras)
+        _playback_section(settings, state)
+        _overlay_section(settings)
         _capture_section(settings, extras)
-        _messages(state)
     finally:
         imgui.end()
 
 
-def _shot_section(settings: ViewerSettings, state: AppState) -> None:
-    imgui.separator_text("Shot")
+def _settings_section(settings: ViewerSettings, state: AppState) -> None:
+    imgui.separator_text("Shot and solver")
+    _falloff_slider(settings)
+    _shot_choice(settings, state)
+    _solver_settings(settings)
+
+
+def _shot_choice(settings: ViewerSettings, state: AppState) -> None:
     chosen = state.shot
     auto_label = f"auto: {chosen.name}" if chosen is not None and settings.pinned_shot is None else "auto (ball path)"
     preview = auto_label if settings.pinned_shot is None else f"pinned: {settings.pinned_shot}"
@@ -86,9 +91,7 @@ def _falloff_slider(settings: ViewerSettings) -> None:
         imgui.set_tooltip("IK falloff distance (section 2.2.5); green: the useful 70-110 cm band")
 
 
-def _solver_section(settings: ViewerSettings) -> None:
-    imgui.separator_text("Solver")
-    _falloff_slider(settings)
+def _solver_settings(settings: ViewerSettings) -> None:
     imgui.text("left wrist")
     for dof in (0, 2):
         imgui.same_line()
@@ -112,7 +115,8 @@ def _solver_section(settings: ViewerSettings) -> None:
 
 
 def _playback_section(settings: ViewerSettings, state: AppState) -> None:
-    imgui.separator_text("Playback")
+    if not imgui.collapsing_header("Playback", imgui.TreeNodeFlags_.default_open):
+        return
     if imgui.button("Pause" if settings.playing else "Play"):
         settings.playing = not settings.playing
     imgui.same_line()
@@ -130,7 +134,7 @@ def _playback_section(settings: ViewerSettings, state: AppState) -> None:
 
 
 def _overlay_section(settings: ViewerSettings) -> None:
-    if not imgui.collapsing_header("Overlays", imgui.TreeNodeFlags_.default_open):
+    if not imgui.collapsing_header("Overlays"):
         return
     o = settings.overlays
     imgui.text("source pose")
@@ -160,7 +164,8 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
                 ("last whole-shot solve", f"{r.solve_ms:.2f} ms"),
                 ("render", f"{r.render_ms:.2f} ms"),
                 ("frame", f"{r.frame_ms:.2f} ms  ({r.fps:.0f} fps)"),
-                ("frame shown", f"{settings.frame:.2f} / {state.num_frames - 1}")]
+                ("frame shown", f"{settings.frame:.2f} / {state.num_frames - 1}"),
+                ("viewport shows", "PC pad pose" if state.pose_source == "pc pad" else "adapted shot")]
         if state.desired_hit_point is not None:
             d = state.desired_hit_point
             rows.append(("desired hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))
@@ -183,6 +188,7 @@ def _blend_plot(settings: ViewerSettings, state: AppState) -> None:
     if implot.begin_plot("##blend", imgui.ImVec2(-1, 150)):
         implot.setup_axes("frame", "blend", implot.AxisFlags_.auto_fit, implot.AxisFlags_.lock)
         implot.setup_axis_limits(implot.ImAxis_.y1, -0.05, 1.1, implot.Cond_.always)
+        implot.setup_legend(implot.Location_.north, implot.LegendFlags_.horizontal | implot.LegendFlags_.outside)
         spec = implot.Spec()
         spec.line_color, spec.line_weight = BLUE, 2.0
         implot.plot_line("importance", frames, blend, spec=spec)
@@ -219,7 +225,8 @@ def load_pcpad():
 
 
 def _capture_section(settings: ViewerSettings, extras: dict) -> None:
-    imgui.separator_text("Capture")
+    if not imgui.collapsing_header("Capture", imgui.TreeNodeFlags_.default_open):
+        return
     if imgui.button("Screenshot (F12)"):
         settings.screenshot_requested = True
     imgui.same_line()
@@ -236,7 +243,6 @@ def _messages(state: AppState) -> None:
     status = {k: v for k, v in state.status.items() if v != "ok"}
     if not state.messages and not status:
         return
-    imgui.separator_text("Messages")
     imgui.push_text_wrap_pos(0.0)
     for piece, why in status.items():
         imgui.text_colored(ERROR_COLOR, f"{piece}: {why}")

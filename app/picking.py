@@ -9,7 +9,7 @@ import numpy as np
 
 TARGET_PLANE_Z = -60.0        # the target slides on the vertical plane z = -60 (behind the stumps)
 TARGET_NORMAL = (0.0, 0.0, 1.0)
-TARGET_RADIUS = 14.0          # cm, generous grab radius of the red-and-white disc
+TARGET_RADIUS = 30.0          # cm, the red-and-white disc's radius (app.render.props.target_disc)
 # The target stays within a sane box so nothing downstream sees huge numbers.
 TARGET_BOUNDS = np.array([[-400.0, 400.0], [-20.0, 400.0]])  # rows x, y: [lo, hi]
 

@@ -60,6 +60,8 @@ class AppState:
     messages: list = field(default_factory=list)      # [(time, text)] newest last
     errors: int = 0                                   # count of reported errors
     status: dict = field(default_factory=dict)        # piece -> "ok" / why it is missing
+    pc_pad: object = None                             # app.pcpad.PadState, owned by the PC pad
+    pose_source: str = "adapted"                      # what the viewport shows: "adapted" | "pc pad"
 
     @property
     def shot(self):

@@ -154,6 +154,7 @@ class App:
         t_ui = time.perf_counter()
 
         update(self.state, self.settings, dt)
+        self._pc_pad_pose()
         t_engine = time.perf_counter()
         if not render:
             self.window.set_cursor(self.state.cursor)
@@ -178,6 +179,21 @@ class App:
         self.stats.record(frame=r.frame_ms, ui=(t_ui - t0) * 1e3, engine=(t_engine - t_ui) * 1e3,
                           render=r.render_ms, compose=(t_end - t_render) * 1e3)
         self.frame_index += 1
+
+    def _pc_pad_pose(self) -> None:
+        """While the PC pad drives the pose (live marker or a synthesised
+        animation), the viewport shows its pose instead of the adapted shot."""
+        pad, state = self.extras.get("pcpad"), self.state
+        state.pose_source = "adapted"
+        if pad is None or not hasattr(pad, "active_pose"):
+            return
+        try:
+            pose = pad.active_pose(state)
+        except Exception as e:
+            state.report(f"pc pad: {type(e).__name__}: {e}")
+            return
+        if pose is not None and np.isfinite(pose.global_positions).all():
+            state.pose, state.pose_source = pose, "pc pad"
 
     def render_scene(self, fbo) -> bool:
         """Draw the 3D scene into ``fbo``; on failure keep the last image and say why."""
