@@ -146,3 +146,22 @@ def test_multi_shot_space(rig, clip):
     p = pcam.fit_clips(rig, [clip, other])
     assert p.scores.shape[0] == clip.num_frames + other.num_frames
     assert np.isclose(p.explained.sum(), 1)
+
+
+def test_real_mocap_golf_swing():
+    """A real swing (CMU 63_02): a few PCs carry most of it, as the dissertation
+    found for cricket shots; all PCs give it back exactly."""
+    from conftest import MOCAP
+    from engine import bvh
+    path = MOCAP / "cmu_63_02_golf_swing.bvh"
+    if not path.exists():
+        pytest.skip("shared mocap not available")
+    skel, c = bvh.read(path)
+    root, rot = c.root_positions[1::4], c.local_rotations[1::4]     # skip the added T-pose; 30 fps
+    p = pcam.fit(root, rot)
+    assert p.num_params == 3 + 4 * skel.num_joints
+    assert p.cumulative[2] > 0.7
+    r, q = p.pose_from_scores(p.scores)
+    assert np.max(np.abs(r - root)) < 1e-6
+    assert _same_rotation(q, rot, 1e-6)
+    assert pcam.style_error(p, root, rot) < 1e-9
