@@ -9,7 +9,9 @@ from __future__ import annotations
 import atexit
 import os
 import shutil
+import signal
 import subprocess
+import sys
 import time
 
 import moderngl
@@ -35,7 +37,8 @@ def ensure_display() -> None:
     # with other Xvfb servers running on the same machine.
     _xvfb = subprocess.Popen([exe, "-displayfd", str(write_fd), "-screen", "0", "1920x1080x24",
                               "-nolisten", "tcp"], pass_fds=(write_fd,),
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                             start_new_session=True)  # a Ctrl+C or group signal is ours to handle
     os.close(write_fd)
     number = b""
     deadline = time.monotonic() + 10
@@ -50,6 +53,9 @@ def ensure_display() -> None:
         raise DisplayError("Xvfb did not start")
     os.environ["DISPLAY"] = ":" + number.decode().strip()
     atexit.register(_stop_xvfb)
+    # A plain SIGTERM would skip atexit and leave our Xvfb running.
+    if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None):
+        signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
 def _stop_xvfb() -> None:
