@@ -2,6 +2,8 @@
 ``app.render.SceneView`` (plain arrays) for ``SceneRenderer.render``."""
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from app.camera import OrbitCamera
@@ -63,6 +65,30 @@ def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCam
     if o.ball and state.ball_position is not None:
         view.ball_position = np.asarray(state.ball_position, np.float32)
     return view
+
+
+def scene_key(view) -> str:
+    """A digest of everything a SceneView draws: equal keys, identical images
+    (lets the loop skip re-rendering a scene that did not change)."""
+    h = hashlib.blake2b(digest_size=16)
+
+    def feed(x):
+        if x is None:
+            h.update(b"-")
+        elif isinstance(x, np.ndarray):
+            h.update(np.ascontiguousarray(x).tobytes())
+            h.update(str(x.shape).encode())
+        elif isinstance(x, (list, tuple)):
+            h.update(b"[")
+            for item in x:
+                feed(item)
+            h.update(b"]")
+        else:
+            h.update(repr(x).encode())
+    for name, value in sorted(vars(view).items()):
+        h.update(name.encode())
+        feed(value)
+    return h.hexdigest()
 
 
 def _skin(pose, state: AppState, skinning_matrices) -> np.ndarray:

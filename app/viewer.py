@@ -20,7 +20,7 @@ from app.panel import PANEL_WIDTH, draw_panel, load_pcpad
 from app.settings import ViewerSettings
 from app.state import AppState
 from app.stats import FrameStats
-from app.submit import build_scene_view
+from app.submit import build_scene_view, scene_key
 from app.timeline import TIMELINE_HEIGHT, draw_timeline
 from app.update import default_target, load_library, pose_at, ball_at, update
 
@@ -76,6 +76,7 @@ class App:
         quad = self.ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
         self._blit_vao = self.ctx.vertex_array(self._blit_prog, [(quad, "2f", "in_pos")])
         self.frame_fbo = self.scene_fbo = None
+        self._scene_key: str | None = None     # what scene_fbo holds (skip unchanged scenes)
         self.frame_index = 0
         self._last_time = time.perf_counter()
         self._pending_screenshots: list[Path] = []
@@ -127,6 +128,7 @@ class App:
                     a.release()
                 self.scene_fbo.depth_attachment.release()
                 self.scene_fbo.release()
+            self._scene_key = None
             color = self.ctx.texture((vw, vh), 4)
             color.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self.scene_fbo = self.ctx.framebuffer([color], self.ctx.depth_renderbuffer((vw, vh)))
@@ -162,7 +164,7 @@ class App:
             return
 
         self._framebuffers(size, rects["viewport"])
-        self.render_scene(self.scene_fbo)
+        self.render_scene(self.scene_fbo, reuse=True)
         self.ctx.finish()  # honest render timing (llvmpipe otherwise works at swap)
         t_render = time.perf_counter()
 
@@ -195,15 +197,21 @@ class App:
         if pose is not None and np.isfinite(pose.global_positions).all():
             state.pose, state.pose_source = pose, "pc pad"
 
-    def render_scene(self, fbo) -> bool:
-        """Draw the 3D scene into ``fbo``; on failure keep the last image and say why."""
+    def render_scene(self, fbo, reuse: bool = False) -> bool:
+        """Draw the 3D scene into ``fbo``; on failure keep the last image and say
+        why. With ``reuse``, an unchanged scene is not drawn again (idle frames)."""
         if self.scene_renderer is None or self.state.rig is None:
             fbo.use()
             fbo.clear(*BACKGROUND)
             return False
         try:
             view = build_scene_view(self.state, self.settings, self.camera, fbo.size)
+            key = scene_key(view) if reuse else None
+            if key is not None and key == self._scene_key:
+                return True
+            self._scene_key = None
             self.scene_renderer.render(view, fbo=fbo)
+            self._scene_key = key
         except Exception as e:
             self.state.report(f"render: {type(e).__name__}: {e}")
             return False
@@ -277,6 +285,7 @@ class App:
 
         def images():
             try:
+                self._scene_key = None
                 for f in range(state.num_frames):
                     pose_at(state, float(f))
                     ball_at(state, float(f))
