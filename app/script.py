@@ -10,7 +10,8 @@ frames per second) and a ``"type"``:
 - ``drag_target {to: [x,y,z] | to_px: [x,y], frames}``: grab the target where
   it is drawn and drag it to a world point on its plane (or a pixel)
 - ``drag_target_path {points: [[x,y,z], ...], frames}`` or ``{circle: {center:
-  [x,y], radius, turns}, frames}``: keep dragging the target along a path
+  [x,y] | "target", radius, turns}, frames}``: keep dragging the target along a
+  path, one mouse move per frame (a circle around "target" passes through it)
 - ``set {key, value}`` (e.g. ``falloff``, ``solver``, ``overlays.flight``),
   ``scrub {frame}``, ``key {key}`` (``space``, ``left``, ``right``, ``h``,
   ``s``, ``[``, ``]``, ``f12``, ``r``), ``pcpad_drag {from: [s1,s2], to: [s1,s2],
@@ -134,11 +135,15 @@ class ScriptPlayer:
 
     def _ev_drag_target_path(self, f, e):
         n = max(int(e.get("frames", 60)), 1)
+        relative = False
         if "circle" in e:
             c = e["circle"]
-            cx, cy, r, turns = _num(c["center"][0]), _num(c["center"][1]), _num(c["radius"]), _num(c.get("turns", 1))
+            relative = c.get("center", "target") == "target"
+            cx, cy = (0.0, 0.0) if relative else (_num(c["center"][0]), _num(c["center"][1]))
+            r, turns = _num(c["radius"]), _num(c.get("turns", 1))
             ang = np.linspace(0, 2 * np.pi * turns, n + 1)
-            pts = np.stack([cx + r * np.sin(ang), cy + r * np.cos(ang), np.zeros_like(ang)], -1)
+            # Starts at the top of the circle; relative circles pass through the target itself.
+            pts = np.stack([cx + r * np.sin(ang), cy + r * np.cos(ang) - (r if relative else 0.0)], -1)
         else:
             pts = np.asarray(e["points"], float)
             if pts.ndim != 2 or pts.shape[1] < 2 or len(pts) < 1:
@@ -152,11 +157,12 @@ class ScriptPlayer:
         self._grab_target(f, memo)
 
         def step(app, p):
-            p = np.array([p[0], p[1], app.settings.target[2]])
+            origin = memo["start_world"][:2] if relative else 0.0
+            p = np.array([*(p + origin), app.settings.target[2]])
             px = app.interaction.world_to_pixel(p)
             if np.isfinite(px).all():
                 app.interaction.mouse_move(*px)
-        # The first path point is reached on the first move; each frame moves once.
+        # One move per frame along the path, then release.
         for i in range(1, n + 2):
             self._at(f + 1 + i, lambda app, p=pts[i - 1]: step(app, p))
         self._at(f + 3 + n, lambda app: app.interaction.mouse_button(LEFT, False))
