@@ -1,0 +1,389 @@
+"""Adapt a whole shot so the bat meets the ball at a new hit point (dissertation 2.2).
+
+At the hit frame h the offset from the FK bat joint to the desired point P is
+taken into bat-joint space (2.2.4): ``offset_local = R(h)^T (P - b(h))``. Every
+frame is fully IK, with the handle ``b(f) + blend(f) R(f) offset_local`` and
+``blend(f) = clamp(1 - |b(f) - b(h)| / falloff, 0, 1)`` (2.2.5), so blend 0
+gives back the source pose exactly. The left-arm chain (Spine .. LeftHand,
+effector Bat) is solved for position; the right hand is put back on its source
+grip relative to the new left hand (2.2.2) by solving the right-arm chain for
+the wrist position, then turning the trailing joints that do not move the wrist
+(forearm twist, hand) for its orientation.
+
+All frames are solved by one compiled call (:func:`_adapt_frames`); a single
+frame for scrubbing uses the same call with one frame.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+from . import quat
+from .ccd import (KIND_MULTI, KIND_NONE, ChainArrays, _q_at, _q_put, _v_at, _v_put, ccd_frame,
+                  chain_arrays, chain_fk, clamp_angle, from_euler_zyx, hinge_axis, limit_euler,
+                  pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub, wrap)
+from .dls import DAMPING, default_stiffness, dls_frame
+from .skeleton import local_translations
+
+def _drop_stale_numba_cache(module: str, depends: tuple[str, ...]) -> None:
+    """numba's on-disk cache only watches the module's own file: drop ``module``'s
+    cached kernels when a module they call into was edited after them."""
+    here = Path(__file__).resolve().parent
+    try:
+        newest = max((here / d).stat().st_mtime for d in depends)
+        for f in (here / "__pycache__").glob(f"{module}.*.nb[ic]"):
+            if f.stat().st_mtime < newest:
+                f.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
+_drop_stale_numba_cache("adapt", ("ccd.py", "dls.py"))
+_drop_stale_numba_cache("dls", ("ccd.py",))
+
+ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
+SOLVERS = ("ccd", "dls")
+
+
+@dataclass
+class AdaptSettings:
+    falloff: float = 90.0        # cm
+    wrist_dof: int = 0           # 0 (locked, default) or 2
+    solver: str = "ccd"          # "ccd" | "dls"
+    iterations: int = 200
+    tolerance: float = 0.001     # cm
+    fix_right_hand: bool = True
+
+
+@dataclass
+class Adaptation:                # whole adapted shot
+    root_positions: np.ndarray   # (F,3)
+    local_rotations: np.ndarray  # (F,J,4)
+    global_rotations: np.ndarray  # (F,J,4)
+    global_positions: np.ndarray  # (F,J,3)
+    blend: np.ndarray            # (F,)
+    handles: np.ndarray          # (F,3) IK handle per frame
+    desired_hit_point: np.ndarray  # (3,)
+    bat_error_cm: float          # |bat - desired| at the hit frame
+    grip_error_cm: np.ndarray    # (F,) right hand position error vs source grip
+    grip_error_deg: np.ndarray   # (F,)
+
+
+# --------------------------------------------------------------------------
+# compiled per-frame pipeline
+
+@njit(cache=True)
+def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
+                  target_rot, g_rot, g_pos, reps, ori_tol):
+    """Turn the trailing chain joints that leave the effector where it is (the
+    effector's own joint, a twist about the bone it lies on) so the last
+    joint's global rotation approaches target_rot. Returns the angle error (rad)."""
+    n = offsets.shape[0]
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    err = q_angle(_q_at(g_rot, n - 1), target_rot)
+    for _ in range(reps):
+        if err < ori_tol:
+            break
+        for k in range(n - 1, -1, -1):
+            kd = kind[k]
+            if kd == KIND_NONE:
+                continue
+            u = vsub(eff, _v_at(g_pos, k))
+            gp = prot if k == 0 else _q_at(g_rot, k - 1)
+            last = _q_at(g_rot, n - 1)
+            if kd == KIND_MULTI:
+                if vnorm(u) > 1e-6:
+                    break
+                # the joint's global rotation that would put the last joint on target
+                want = qmul(target_rot, qmul(qconj(last), _q_at(g_rot, k)))
+                e = pick_branch(to_euler_zyx(qmul(qconj(gp), want)), euler, src_euler, free, lo, hi, k)
+                for c in range(3):
+                    if free[k, c]:
+                        euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
+                    else:
+                        euler[k, c] = src_euler[k, c]
+            else:
+                c = kd - 1
+                axis = hinge_axis(prot, g_rot, euler, k, c)
+                du = dot3(u, axis)
+                if vnorm((u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])) > 1e-6:
+                    break
+                # twist of the remaining error about the hinge axis
+                qe = qmul(target_rot, qconj(last))
+                if qe[0] < 0.0:
+                    qe = (-qe[0], -qe[1], -qe[2], -qe[3])
+                theta = 2.0 * math.atan2(qe[1] * axis[0] + qe[2] * axis[1] + qe[3] * axis[2], qe[0])
+                euler[k, c] = clamp_angle(euler[k, c] + theta, lo[k, c], hi[k, c])
+            _q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        err = q_angle(_q_at(g_rot, n - 1), target_rot)
+    return err
+
+
+@njit(cache=True)
+def dot3(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+@njit(cache=True)
+def _fk_subtree(i, f, parents, trans, subtree, out_local, out_grot, out_gpos):
+    """Recompute globals of frame slot i for the joints in subtree (parents first)."""
+    for j in range(parents.shape[0]):
+        if not subtree[j]:
+            continue
+        p = parents[j]
+        pr = (out_grot[i, p, 0], out_grot[i, p, 1], out_grot[i, p, 2], out_grot[i, p, 3])
+        pp = (out_gpos[i, p, 0], out_gpos[i, p, 1], out_gpos[i, p, 2])
+        t = (trans[f, j, 0], trans[f, j, 1], trans[f, j, 2])
+        g = qmul(pr, (out_local[i, j, 0], out_local[i, j, 1], out_local[i, j, 2], out_local[i, j, 3]))
+        pos = vadd(pp, qrot(pr, t))
+        out_grot[i, j, 0] = g[0]
+        out_grot[i, j, 1] = g[1]
+        out_grot[i, j, 2] = g[2]
+        out_grot[i, j, 3] = g[3]
+        out_gpos[i, j, 0] = pos[0]
+        out_gpos[i, j, 1] = pos[1]
+        out_gpos[i, j, 2] = pos[2]
+
+
+@njit(cache=True)
+def _solve_chain(solver, prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
+                 weight, handle, tol, max_iter, damping, g_rot, g_pos, cols, dofs, bak_l, bak_e):
+    if solver == 0:
+        return ccd_frame(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
+                         weight, handle, tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
+    return dls_frame(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, damping, handle,
+                     tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
+
+
+@njit(cache=True)
+def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_grot, src_gpos,
+                  src_euler, subtree_l, subtree_r, bat, lhand,
+                  lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
+                  rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w,
+                  rel_pos, rel_rot, fix_right, solver, tol, max_iter, damping, ori_tol,
+                  out_local, out_grot, out_gpos, out_blend, out_handle, out_err, out_gcm, out_gdeg):
+    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1."""
+    nl = lj.shape[0]
+    nr = rj.shape[0]
+    nmax = max(nl, nr)
+    g_rot = np.empty((nmax, 4))
+    g_pos = np.empty((nmax, 3))
+    cols = np.empty((3 * nmax, 3))
+    dofs = np.empty((3 * nmax, 2), np.int64)
+    bak_l = np.empty((nmax, 4))
+    bak_e = np.empty((nmax, 3))
+    loc_l = np.empty((nl, 4))
+    eul_l = np.empty((nl, 3))
+    src_l = np.empty((nl, 3))
+    loc_r = np.empty((nr, 4))
+    eul_r = np.empty((nr, 3))
+    src_r = np.empty((nr, 3))
+    rh = rj[nr - 1]
+    b_h = (src_gpos[hit, bat, 0], src_gpos[hit, bat, 1], src_gpos[hit, bat, 2])
+    r_h = (src_grot[hit, bat, 0], src_grot[hit, bat, 1], src_grot[hit, bat, 2], src_grot[hit, bat, 3])
+    offset = qrot(qconj(r_h), vsub((desired[0], desired[1], desired[2]), b_h))
+    for i in range(frames.shape[0]):
+        f = frames[i]
+        out_local[i] = src_local[f]
+        out_grot[i] = src_grot[f]
+        out_gpos[i] = src_gpos[f]
+        b_f = (src_gpos[f, bat, 0], src_gpos[f, bat, 1], src_gpos[f, bat, 2])
+        r_f = (src_grot[f, bat, 0], src_grot[f, bat, 1], src_grot[f, bat, 2], src_grot[f, bat, 3])
+        blend = 1.0 - vnorm(vsub(b_f, b_h)) / falloff
+        blend = min(1.0, max(0.0, blend))
+        o = qrot(r_f, offset)
+        handle = (b_f[0] + blend * o[0], b_f[1] + blend * o[1], b_f[2] + blend * o[2])
+        out_blend[i] = blend
+        _v_put(out_handle, i, handle)
+        # left arm: bat joint onto the handle
+        for k in range(nl):
+            for c in range(4):
+                loc_l[k, c] = src_local[f, lj[k], c]
+            for c in range(3):
+                src_l[k, c] = src_euler[f, lj[k], c]
+                eul_l[k, c] = src_l[k, c]
+        pj = parents[lj[0]]
+        prot = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
+        ppos = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
+        err, its = _solve_chain(solver, prot, ppos, l_off, l_eoff, loc_l, eul_l, src_l, l_free, l_kind,
+                                l_lo, l_hi, l_w, handle, tol, max_iter, damping, g_rot, g_pos,
+                                cols, dofs, bak_l, bak_e)
+        if its > 0:
+            for k in range(nl):
+                for c in range(4):
+                    out_local[i, lj[k], c] = loc_l[k, c]
+            _fk_subtree(i, f, parents, trans, subtree_l, out_local, out_grot, out_gpos)
+        bpos = (out_gpos[i, bat, 0], out_gpos[i, bat, 1], out_gpos[i, bat, 2])
+        out_err[i] = vnorm(vsub(bpos, handle))
+        # right hand back on its source grip relative to the left hand
+        g_lh = (out_grot[i, lhand, 0], out_grot[i, lhand, 1], out_grot[i, lhand, 2], out_grot[i, lhand, 3])
+        p_lh = (out_gpos[i, lhand, 0], out_gpos[i, lhand, 1], out_gpos[i, lhand, 2])
+        t_pos = vadd(p_lh, qrot(g_lh, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
+        t_rot = qmul(g_lh, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
+        if fix_right and its > 0:
+            for k in range(nr):
+                for c in range(4):
+                    loc_r[k, c] = out_local[i, rj[k], c]
+                for c in range(3):
+                    src_r[k, c] = src_euler[f, rj[k], c]
+                    eul_r[k, c] = src_r[k, c]
+            pj = parents[rj[0]]
+            prot = (out_grot[i, pj, 0], out_grot[i, pj, 1], out_grot[i, pj, 2], out_grot[i, pj, 3])
+            ppos = (out_gpos[i, pj, 0], out_gpos[i, pj, 1], out_gpos[i, pj, 2])
+            eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
+            moved = (vnorm(vsub(eff, t_pos)) >= tol
+                     or q_angle((g_rot[nr - 1, 0], g_rot[nr - 1, 1], g_rot[nr - 1, 2], g_rot[nr - 1, 3]),
+                                t_rot) >= ori_tol)
+            if moved:
+                for _outer in range(3):
+                    _solve_chain(solver, prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
+                                 r_lo, r_hi, r_w, t_pos, tol, max_iter, damping, g_rot, g_pos,
+                                 cols, dofs, bak_l, bak_e)
+                    orient_finish(prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
+                                  r_lo, r_hi, t_rot, g_rot, g_pos, 8, ori_tol)
+                    eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
+                    if vnorm(vsub(eff, t_pos)) < tol:
+                        break
+                for k in range(nr):
+                    for c in range(4):
+                        out_local[i, rj[k], c] = loc_r[k, c]
+                _fk_subtree(i, f, parents, trans, subtree_r, out_local, out_grot, out_gpos)
+        g_rh = (out_grot[i, rh, 0], out_grot[i, rh, 1], out_grot[i, rh, 2], out_grot[i, rh, 3])
+        p_rh = (out_gpos[i, rh, 0], out_gpos[i, rh, 1], out_gpos[i, rh, 2])
+        out_gcm[i] = vnorm(vsub(p_rh, t_pos))
+        out_gdeg[i] = math.degrees(q_angle(g_rh, t_rot))
+
+
+# --------------------------------------------------------------------------
+
+def _subtree(parents: np.ndarray, root: int) -> np.ndarray:
+    """(J,) bool: root and every joint below it."""
+    m = np.zeros(len(parents), bool)
+    m[root] = True
+    for j in range(root + 1, len(parents)):
+        if parents[j] >= 0 and m[parents[j]]:
+            m[j] = True
+    return m
+
+
+def check_point(p, what: str = "target") -> np.ndarray:
+    """A finite (3,) point, or ValueError with one clear line."""
+    if isinstance(p, np.ndarray) and p.shape == (3,) and p.dtype == np.float64:
+        x, y, z = p
+        if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
+            return p        # fast path (scrubbing calls this every frame)
+    try:
+        a = np.asarray(p, float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be three numbers (x, y, z) in cm") from None
+    if a.shape != (3,):
+        raise ValueError(f"{what} must be three numbers (x, y, z) in cm, got {a.size}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{what} must be finite numbers, got {a.tolist()}")
+    return a
+
+
+def check_settings(s: AdaptSettings) -> None:
+    """ValueError with one clear line for settings the solvers cannot use."""
+    if s.solver not in SOLVERS:
+        raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {s.solver!r}")
+    if s.wrist_dof not in (0, 2):
+        raise ValueError(f"wrist DOF must be 0 or 2, got {s.wrist_dof}")
+    if not (math.isfinite(s.falloff) and s.falloff > 0):
+        raise ValueError(f"falloff must be a positive number of cm, got {s.falloff}")
+    if not (math.isfinite(s.tolerance) and s.tolerance > 0):
+        raise ValueError(f"tolerance must be a positive number of cm, got {s.tolerance}")
+    if int(s.iterations) < 1:
+        raise ValueError(f"iterations must be at least 1, got {s.iterations}")
+
+
+class Adapter:
+    """Per-shot precomputation (done once); :meth:`adapt` and :meth:`adapt_frame`
+    then cost one compiled call each."""
+
+    def __init__(self, rig, shot):
+        skel, clip = shot.skeleton, shot.clip
+        if list(skel.names) != list(rig.skeleton.names):
+            raise ValueError(f"shot {shot.name!r}: joints are not in the rig's order "
+                             "(load it with engine.library.conform_to_rig)")
+        self.rig = rig
+        self.shot = shot
+        self.hit_frame = int(shot.hit_frame)
+        self.num_frames = clip.num_frames
+        self.parents = np.ascontiguousarray(skel.parents, np.int64)
+        self.trans = np.ascontiguousarray(local_translations(skel, clip), float)
+        self.src_local = np.ascontiguousarray(clip.local_rotations, float)
+        grot, gpos = shot.fk
+        self.src_grot = np.ascontiguousarray(grot, float)
+        self.src_gpos = np.ascontiguousarray(gpos, float)
+        self.src_euler = np.ascontiguousarray(np.radians(limit_euler(self.src_local, rig.limits)))
+        self.bat = int(rig.bat_joint)
+        left = rig.chains["left_arm"]
+        right = rig.chains["right_arm"]
+        self.lhand = int(left.joints[-1])
+        self.rhand = int(right.joints[-1])
+        self.subtree_l = _subtree(self.parents, int(left.joints[0]))
+        self.subtree_r = _subtree(self.parents, int(right.joints[0]))
+        # the right hand's source grip in the left hand's frame, per frame
+        g_lh, g_rh = self.src_grot[:, self.lhand], self.src_grot[:, self.rhand]
+        inv = quat.conjugate(g_lh)
+        self.rel_rot = np.ascontiguousarray(quat.mul(inv, g_rh))
+        self.rel_pos = np.ascontiguousarray(quat.rotate(inv, self.src_gpos[:, self.rhand] - self.src_gpos[:, self.lhand]))
+        self._chains: dict[tuple, tuple] = {}
+        self.hit_point = self.src_gpos[self.hit_frame, self.bat].copy()
+        self.bat_positions = self.src_gpos[:, self.bat]
+
+    def blend(self, falloff: float) -> np.ndarray:
+        """Importance blend (F,) for a falloff in cm (2.2.5)."""
+        d = np.linalg.norm(self.bat_positions - self.hit_point, axis=-1)
+        return np.clip(1.0 - d / falloff, 0.0, 1.0)
+
+    def _chain_args(self, settings: AdaptSettings) -> tuple:
+        key = (settings.wrist_dof, settings.solver)
+        if key not in self._chains:
+            out = []
+            for name, wd in (("left_arm", settings.wrist_dof), ("right_arm", None)):
+                ch: ChainArrays = chain_arrays(self.rig, name, wd)
+                n = len(ch.joints)
+                w = ch.polish_weight if settings.solver == "ccd" else 1.0 / default_stiffness(n)
+                out += [ch.joints, ch.offsets, ch.eff_off, ch.free, ch.kind, ch.lo, ch.hi,
+                        np.ascontiguousarray(w, float)]
+            self._chains[key] = tuple(out)
+        return self._chains[key]
+
+    def _run(self, frames: np.ndarray, desired, settings: AdaptSettings):
+        check_settings(settings)
+        p = check_point(desired, "desired hit point")
+        K, J = len(frames), self.parents.shape[0]
+        out = (np.empty((K, J, 4)), np.empty((K, J, 4)), np.empty((K, J, 3)), np.empty(K),
+               np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
+        _adapt_frames(frames, self.hit_frame, p, float(settings.falloff), self.parents, self.trans,
+                      self.src_local, self.src_grot, self.src_gpos, self.src_euler,
+                      self.subtree_l, self.subtree_r, self.bat, self.lhand,
+                      *self._chain_args(settings),
+                      self.rel_pos, self.rel_rot, bool(settings.fix_right_hand),
+                      SOLVERS.index(settings.solver), float(settings.tolerance), int(settings.iterations),
+                      DAMPING, ORIENT_TOL, *out)
+        return out, p
+
+    def adapt(self, desired_hit_point, settings: AdaptSettings | None = None) -> Adaptation:
+        """The whole shot adapted so the bat joint is at ``desired_hit_point`` at the hit frame."""
+        settings = settings or AdaptSettings()
+        frames = np.arange(self.num_frames, dtype=np.int64)
+        (loc, grot, gpos, blend, handles, err, gcm, gdeg), p = self._run(frames, desired_hit_point, settings)
+        h = self.hit_frame
+        return Adaptation(self.trans[:, 0].copy(), loc, grot, gpos, blend, handles, p,
+                          float(np.linalg.norm(gpos[h, self.bat] - p)), gcm, gdeg)
+
+    def adapt_frame(self, frame: int, desired_hit_point, settings: AdaptSettings | None = None):
+        """(local_rotations (J,4), global_rotations (J,4), global_positions (J,3)) of one frame."""
+        settings = settings or AdaptSettings()
+        if not 0 <= int(frame) < self.num_frames:
+            raise ValueError(f"frame {frame} outside 0..{self.num_frames - 1}")
+        (loc, grot, gpos, *_), _ = self._run(np.array([int(frame)], np.int64), desired_hit_point, settings)
+        return loc[0], grot[0], gpos[0]
