@@ -1,0 +1,60 @@
+"""Small moderngl helpers: shader files with #include, dynamic buffers, matrices."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+SHADER_DIR = Path(__file__).resolve().parent.parent.parent / "shaders"
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
+
+
+def shader_source(name: str) -> str:
+    """GLSL text of ``shaders/name`` with ``#include "file"`` lines expanded (one level)."""
+    text = (SHADER_DIR / name).read_text()
+    return _INCLUDE.sub(lambda m: (SHADER_DIR / m.group(1)).read_text(), text)
+
+
+def program(ctx, vertex: str, fragment: str, geometry: str | None = None):
+    return ctx.program(vertex_shader=shader_source(vertex), fragment_shader=shader_source(fragment),
+                       geometry_shader=shader_source(geometry) if geometry else None)
+
+
+def mat_bytes(m: np.ndarray) -> bytes:
+    """Row-major (..., 4, 4) column-vector matrices as GLSL (column-major) bytes."""
+    m = np.asarray(m, np.float32)
+    return np.ascontiguousarray(np.swapaxes(m, -1, -2)).tobytes()
+
+
+def set_uniform(prog, name: str, value) -> None:
+    """Set a uniform if the (optimising) compiler kept it."""
+    if name in prog:
+        u = prog[name]
+        if isinstance(value, np.ndarray) and value.shape[-2:] == (4, 4):
+            u.write(mat_bytes(value))
+        elif isinstance(value, (bytes, bytearray)):
+            u.write(value)
+        else:
+            u.value = tuple(value) if isinstance(value, (list, tuple, np.ndarray)) else value
+
+
+class DynamicBuffer:
+    """A vertex buffer refilled every frame in place (orphaned), grown only when too small."""
+
+    def __init__(self, ctx, capacity_bytes: int = 1 << 16):
+        self.ctx = ctx
+        self.capacity = capacity_bytes
+        self.buffer = ctx.buffer(reserve=capacity_bytes, dynamic=True)
+        self.generation = 0   # bumps when the buffer object is replaced (VAOs must be rebuilt)
+
+    def update(self, data: bytes) -> None:
+        if len(data) > self.capacity:
+            self.capacity = max(len(data), 2 * self.capacity)
+            self.buffer.release()
+            self.buffer = self.ctx.buffer(reserve=self.capacity, dynamic=True)
+            self.generation += 1
+        else:
+            self.buffer.orphan(self.capacity)
+        if data:
+            self.buffer.write(data)

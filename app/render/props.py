@@ -1,0 +1,175 @@
+"""Static scene geometry built once: stumps and bails, the target disc, unit cross.
+
+Meshes are dicts of flat arrays (positions, normals, colors, gloss, indices),
+the same layout as ``app.mesh.Mesh`` for the static program.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from app.mesh import Mesh
+
+STUMP_HEIGHT = 71.1         # cm above the ground (law 8)
+STUMP_DIAMETER = 3.65
+WICKET_WIDTH = 22.86
+BAIL_LENGTH = 10.95
+PITCH_LENGTH = 2012.0
+WOOD = (0.93, 0.88, 0.74)
+
+
+def cylinder(p0, p1, radius, color, n=16, gloss=0.35) -> Mesh:
+    """Closed cylinder with flat caps (split normals) from ``p0`` to ``p1``."""
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    axis = p1 - p0
+    h = np.linalg.norm(axis)
+    a = axis / h
+    ref = np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(a, ref)
+    u /= np.linalg.norm(u)
+    v = np.cross(a, u)
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    ring = np.cos(th)[:, None] * u + np.sin(th)[:, None] * v
+    side_pos = np.concatenate([p0 + radius * ring, p1 + radius * ring])
+    side_nrm = np.concatenate([ring, ring])
+    i = np.arange(n)
+    j = (i + 1) % n
+    side_idx = np.concatenate([np.stack([i, j, n + j], 1), np.stack([i, n + j, n + i], 1)])
+    cap0 = np.concatenate([[p0], p0 + radius * ring])
+    cap1 = np.concatenate([[p1], p1 + radius * ring])
+    base0, base1 = 2 * n, 3 * n + 1
+    cap0_idx = np.stack([np.full(n, base0), base0 + 1 + j, base0 + 1 + i], 1)
+    cap1_idx = np.stack([np.full(n, base1), base1 + 1 + i, base1 + 1 + j], 1)
+    pos = np.concatenate([side_pos, cap0, cap1])
+    nrm = np.concatenate([side_nrm, np.tile(-a, (n + 1, 1)), np.tile(a, (n + 1, 1))])
+    idx = np.concatenate([side_idx, cap0_idx, cap1_idx])
+    return _mesh(pos, nrm, idx, color, gloss)
+
+
+def _mesh(pos, nrm, idx, color, gloss) -> Mesh:
+    V = len(pos)
+    col = np.ones((V, 4), np.float32)
+    col[:, :3] = np.asarray(color, np.float32)[..., :3] if np.ndim(color) == 1 else color
+    return Mesh(pos.astype(np.float32), nrm.astype(np.float32), col, np.full(V, gloss, np.float32),
+                idx.astype(np.uint32))
+
+
+def merge(meshes: list[Mesh]) -> Mesh:
+    offs = np.cumsum([0] + [len(m.positions) for m in meshes])[:-1]
+    return Mesh(np.concatenate([m.positions for m in meshes]), np.concatenate([m.normals for m in meshes]),
+                np.concatenate([m.colors for m in meshes]), np.concatenate([m.gloss for m in meshes]),
+                np.concatenate([m.indices + o for m, o in zip(meshes, offs)]).astype(np.uint32))
+
+
+def wickets() -> Mesh:
+    """Three stumps and two bails at each end; middle stump of the batting end at the origin."""
+    parts = []
+    r = STUMP_DIAMETER / 2
+    gap = (WICKET_WIDTH - STUMP_DIAMETER) / 2
+    for z in (0.0, PITCH_LENGTH):
+        for x in (-gap, 0.0, gap):
+            parts.append(cylinder((x, 0.0, z), (x, STUMP_HEIGHT - 0.6, z), r, WOOD, 14))
+            parts.append(cylinder((x, STUMP_HEIGHT - 0.6, z), (x, STUMP_HEIGHT, z), r * 0.8, WOOD, 14))
+        for x0, x1 in ((-gap, 0.0), (0.0, gap)):
+            mid = (x0 + x1) / 2
+            parts.append(cylinder((mid - BAIL_LENGTH / 2, STUMP_HEIGHT + 0.6, z),
+                                  (mid + BAIL_LENGTH / 2, STUMP_HEIGHT + 0.6, z), 0.75, WOOD, 10))
+    return merge(parts)
+
+
+def target_disc(radius: float = 30.0, rings: int = 5, thickness: float = 1.5) -> Mesh:
+    """Red-and-white archery-style disc facing +Z, centred at the origin, both faces ringed."""
+    n = 64
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    cs = np.stack([np.cos(th), np.sin(th), np.zeros(n)], 1)
+    red, white = (0.80, 0.06, 0.06), (0.97, 0.97, 0.97)
+    parts = []
+    for face_z, sign in ((thickness / 2, 1.0), (-thickness / 2, -1.0)):
+        for k in range(rings):
+            r0, r1 = radius * k / rings, radius * (k + 1) / rings
+            color = red if (rings - 1 - k) % 2 == 0 else white
+            inner = cs * r0 + (0, 0, face_z)
+            outer = cs * r1 + (0, 0, face_z)
+            pos = np.concatenate([inner, outer])
+            i = np.arange(n)
+            j = (i + 1) % n
+            idx = np.concatenate([np.stack([i, j, n + j], 1), np.stack([i, n + j, n + i], 1)])
+            if sign > 0:   # counter-clockwise seen from the side the face looks at
+                idx = idx[:, ::-1]
+            parts.append(_mesh(pos, np.tile((0, 0, sign), (2 * n, 1)), idx, color, 0.3))
+    rim = cylinder((0, 0, -thickness / 2 + 0.1), (0, 0, thickness / 2 - 0.1), radius + 0.6, (0.08, 0.10, 0.20), 64, 0.5)
+    parts.append(rim)
+    return merge(parts)
+
+
+def target_model(position, normal) -> np.ndarray:
+    """Model matrix ``(4,4)`` placing the disc's +Z on ``normal`` at ``position``."""
+    z = np.asarray(normal, float)
+    z = z / (np.linalg.norm(z) or 1.0)
+    up = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.95 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(up, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z, position
+    return m.astype(np.float32)
+
+
+def translation(p) -> np.ndarray:
+    m = np.eye(4, dtype=np.float32)
+    m[:3, 3] = p
+    return m
+
+
+# ----------------------------------------------------------------- ground
+GRASS = (0.27, 0.40, 0.18)
+GRASS_STRIPE = (0.32, 0.46, 0.21)
+PITCH = (0.80, 0.74, 0.56)
+PITCH_WORN = (0.71, 0.63, 0.46)
+LINE = (0.97, 0.97, 0.96)
+PITCH_HALF_WIDTH = 152.5     # 3.05 m strip
+PITCH_OVERRUN = 150.0        # strip beyond each bowling crease
+CREASE_HALF = 2.5            # lines 5 cm wide
+
+
+def _quad(x0, x1, z0, z1, colors) -> tuple[np.ndarray, np.ndarray]:
+    """Ground quad (y=0) as 2 triangles; ``colors`` one rgb or 4 rgb (x0z0, x1z0, x1z1, x0z1)."""
+    p = np.array([[x0, 0, z0], [x1, 0, z0], [x1, 0, z1], [x0, 0, z0], [x1, 0, z1], [x0, 0, z1]], np.float32)
+    c = np.asarray(colors, np.float32).reshape(-1, 3)
+    c = np.tile(c, (6, 1)) if len(c) == 1 else c[[0, 1, 2, 0, 2, 3]]
+    return p, c
+
+
+def crease_rects(z0: float, direction: float) -> list[tuple[float, float, float, float]]:
+    """Crease lines of one end (law 7) as (x0, x1, z0, z1): bowling crease 2.64 m through the
+    stumps, popping crease 1.22 m in front (drawn 1.83 m each side of the middle stump), return
+    creases 1.32 m either side running 2.44 m back from the popping crease."""
+    w = CREASE_HALF
+    pop = z0 + direction * 122.0
+    back = pop - direction * 244.0
+    zlo, zhi = min(pop, back), max(pop, back)
+    return [(-132.0 - w, 132.0 + w, z0 - w, z0 + w), (-183.0, 183.0, pop - w, pop + w),
+            (-132.0 - w, -132.0 + w, zlo - w, zhi + w), (132.0 - w, 132.0 + w, zlo - w, zhi + w)]
+
+
+def ground() -> tuple[np.ndarray, np.ndarray]:
+    """Ground triangles in painter's order (draw with depth func ALWAYS): outfield, mown stripes,
+    pitch strip with worn ends, creases. Returns positions (N,3) and sRGB colours (N,3)."""
+    quads = [_quad(-40000, 40000, -40000, 40000, GRASS)]
+    for x in np.arange(-6000.0, 6000.0, 600.0):
+        quads.append(_quad(x + 300.0, x + 600.0, -6000, 8000, GRASS_STRIPE))
+    L, hw = PITCH_LENGTH, PITCH_HALF_WIDTH
+    # strip in bands along z so the worn areas in front of each crease blend smoothly
+    zs = np.array([-PITCH_OVERRUN, 0, 60, 120, 200, 300, 420, 600, L - 600, L - 420, L - 300, L - 200,
+                   L - 120, L - 60, L, L + PITCH_OVERRUN])
+    wear = np.exp(-((zs - 200.0) / 160.0) ** 2) + np.exp(-((zs - (L - 200.0)) / 160.0) ** 2)
+    xs = np.array([-hw, -45.0, 0.0, 45.0, hw])
+    xw = np.exp(-(xs / 60.0) ** 2)
+    col = lambda zi, xi: np.asarray(PITCH) + (np.asarray(PITCH_WORN) - PITCH) * 0.7 * wear[zi] * xw[xi]
+    for i in range(len(zs) - 1):
+        for k in range(len(xs) - 1):
+            quads.append(_quad(xs[k], xs[k + 1], zs[i], zs[i + 1],
+                               [col(i, k), col(i, k + 1), col(i + 1, k + 1), col(i + 1, k)]))
+    for z0, d in ((0.0, 1.0), (L, -1.0)):
+        for x0, x1, za, zb in crease_rects(z0, d):
+            quads.append(_quad(x0, x1, za, zb, LINE))
+    return np.concatenate([q[0] for q in quads]), np.concatenate([q[1] for q in quads])

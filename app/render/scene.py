@@ -1,0 +1,475 @@
+"""Scene renderer: shadowed, lit, skinned batsman on a cricket ground, with overlays.
+
+One ``SceneRenderer`` per GL context. Vertex buffers of the batsman and the
+props are uploaded once; per frame only the bone-matrix uniform arrays and the
+small overlay buffers (updated in place, orphaned) change. Passes: shadow map
+(1024^2, directional sun fitted around the batsman), opaque lit geometry
+(batsman, wickets, ball, target, ground), sky (far plane, early-z keeps it
+cheap), overlays (thick lines and round points via geometry shaders), then the
+translucent ghost (depth pre-pass so it never shows its own back faces).
+Matrices use the column-vector convention: ``p_clip = proj @ view @ p_world``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import props
+from .gl import DynamicBuffer, mat_bytes, program, set_uniform
+
+MAX_BONES = 32
+SHADOW_SIZE = 1024
+BACKGROUND = (0.60, 0.74, 0.90)
+
+# Lighting: a high sun on the off side, a little behind the batsman's front.
+SUN_DIR = np.array([-0.55, 0.78, -0.30]) / np.linalg.norm([-0.55, 0.78, -0.30])
+FILL_DIR = np.array([0.6, 0.35, 0.55]) / np.linalg.norm([0.6, 0.35, 0.55])
+LIGHTING = {
+    "u_sun_dir": tuple(SUN_DIR), "u_sun_color": (1.75, 1.66, 1.52),
+    "u_fill_dir": tuple(FILL_DIR), "u_fill_color": (0.26, 0.28, 0.34),
+    "u_sky_ambient": (0.30, 0.36, 0.47), "u_ground_ambient": (0.17, 0.20, 0.13),
+    "u_haze_color": (0.80, 0.87, 0.95), "u_haze_density": 1.0 / 30000.0,
+}
+ZENITH, HORIZON = (0.24, 0.46, 0.82), (0.80, 0.87, 0.95)
+
+
+@dataclass
+class SceneView:
+    view: np.ndarray              # (4,4) world->camera, float32, column-vector convention
+    proj: np.ndarray              # (4,4)
+    size: tuple[int, int]         # (w, h) pixels
+    skin_matrices: np.ndarray | None  # (J,4,4) float32, engine.skeleton.skinning_matrices; None: no batsman
+    ghost_skin_matrices: np.ndarray | None = None  # source pose, drawn translucent
+    ghost_alpha: float = 0.25
+    skeleton_lines: list = ()     # [(global_positions (J,3), parents (J,), rgba)]
+    ball_position: np.ndarray | None = None
+    target_position: np.ndarray | None = None     # red-and-white target disc
+    target_normal: tuple = (0, 0, 1)
+    target_highlight: bool = False
+    crosses: list = ()            # [(points (N,3), rgba, size_cm)] e.g. nine FK hit points
+    points: list = ()             # [(points (N,3), rgba, size_px)]
+    polylines: list = ()          # [(points (N,3), rgba, width_px)]
+    show_pitch: bool = True
+    # optional extras
+    shadows: bool = True
+    skeleton_width_px: float = 3.0
+    skeleton_on_top: bool = True  # skeleton lines ignore depth (visible inside the mesh)
+
+
+def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """World->camera ``(4,4)`` float32 looking from ``eye`` at ``target``."""
+    eye, target, up = (np.asarray(v, float) for v in (eye, target, up))
+    f = target - eye
+    f /= np.linalg.norm(f)
+    s = np.cross(f, up)
+    if np.linalg.norm(s) < 1e-9:
+        s = np.cross(f, (1.0, 0.0, 0.0))
+    s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m.astype(np.float32)
+
+
+def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    """OpenGL perspective projection ``(4,4)`` float32."""
+    t = 1.0 / np.tan(np.radians(fovy_deg) / 2)
+    m = np.zeros((4, 4))
+    m[0, 0], m[1, 1] = t / aspect, t
+    m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m.astype(np.float32)
+
+
+def orthographic(half_w: float, half_h: float, near: float, far: float) -> np.ndarray:
+    m = np.eye(4)
+    m[0, 0], m[1, 1] = 1 / half_w, 1 / half_h
+    m[2, 2], m[2, 3] = -2 / (far - near), -(far + near) / (far - near)
+    return m.astype(np.float32)
+
+
+def offscreen_context():
+    """A standalone (headless, EGL) moderngl context, GL 3.3 core or newer."""
+    import moderngl
+    return moderngl.create_standalone_context(backend="egl", require=330)
+
+
+def _vao(ctx, prog, buffers, index_buffer=None):
+    """Vertex array binding only the attributes the compiled program kept."""
+    content = [(b, fmt, name) for b, fmt, name in buffers if name in prog]
+    return ctx.vertex_array(prog, content, index_buffer=index_buffer)
+
+
+class _MeshGPU:
+    """Static buffers of one mesh, with a lit VAO and a depth-only VAO."""
+
+    def __init__(self, ctx, mesh, lit_prog, depth_prog, skinned: bool):
+        self.buffers = [ctx.buffer(np.ascontiguousarray(a, dtype=dt).tobytes()) for a, dt in (
+            (mesh.positions, "f4"), (mesh.normals, "f4"), (mesh.colors, "f4"), (mesh.gloss, "f4"))]
+        self.ibo = ctx.buffer(np.ascontiguousarray(mesh.indices, dtype="u4").tobytes())
+        pos, nrm, col, gl = self.buffers
+        attrs = [(pos, "3f", "in_pos"), (nrm, "3f", "in_normal"), (col, "4f", "in_color"), (gl, "1f", "in_gloss")]
+        depth_attrs = [(pos, "3f", "in_pos")]
+        if skinned:
+            jb = ctx.buffer(np.ascontiguousarray(mesh.joints, dtype="i4").tobytes())
+            wb = ctx.buffer(np.ascontiguousarray(mesh.weights, dtype="f4").tobytes())
+            self.buffers += [jb, wb]
+            attrs += [(jb, "4i", "in_joints"), (wb, "4f", "in_weights")]
+            depth_attrs += [(jb, "4i", "in_joints"), (wb, "4f", "in_weights")]
+        self.lit = _vao(ctx, lit_prog, attrs, self.ibo)
+        self.depth = _vao(ctx, depth_prog, depth_attrs, self.ibo)
+
+
+class SceneRenderer:
+    def __init__(self, ctx, rig, glb_path=None):
+        """Load ``assets/batsman.glb`` (or ``glb_path``) and the shaders; build static geometry."""
+        from app.mesh import load_glb
+        from engine.skeleton import bind_positions
+
+        self.ctx = ctx
+        self.rig = rig
+        self.bind_positions = bind_positions(rig.skeleton)
+        meshes = load_glb(glb_path, rig)
+        self.body_mesh, self.ball_mesh = meshes["Batsman"], meshes["Ball"]
+        if rig.skeleton.num_joints > MAX_BONES:
+            raise ValueError(f"rig has {rig.skeleton.num_joints} joints; the renderer supports {MAX_BONES}")
+
+        self.p_skin = program(ctx, "skin.vert", "lit.frag")
+        self.p_static = program(ctx, "static.vert", "lit.frag")
+        self.p_depth_skin = program(ctx, "depth_skin.vert", "depth.frag")
+        self.p_depth_static = program(ctx, "depth_static.vert", "depth.frag")
+        self.p_ground = program(ctx, "ground.vert", "ground.frag")
+        self.p_receiver = program(ctx, "receiver.vert", "receiver.frag")
+        self.p_sky = program(ctx, "sky.vert", "sky.frag")
+        self.p_line = program(ctx, "line.vert", "line.frag", "line.geom")
+        self.p_point = program(ctx, "line.vert", "point.frag", "point.geom")
+
+        self.body = _MeshGPU(ctx, self.body_mesh, self.p_skin, self.p_depth_skin, True)
+        self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static, False)
+        self.wickets = _MeshGPU(ctx, props.wickets(), self.p_static, self.p_depth_static, False)
+        self.target = _MeshGPU(ctx, props.target_disc(), self.p_static, self.p_depth_static, False)
+
+        gpos, gcol = props.ground()
+        self.ground_bufs = [ctx.buffer(gpos.astype("f4").tobytes()), ctx.buffer(gcol.astype("f4").tobytes())]
+        self.ground = _vao(ctx, self.p_ground, [(self.ground_bufs[0], "3f", "in_pos"),
+                                                (self.ground_bufs[1], "3f", "in_color")])
+        self.sky = ctx.vertex_array(self.p_sky, [])
+
+        self.shadow_tex = ctx.depth_texture((SHADOW_SIZE, SHADOW_SIZE))
+        self.shadow_tex.compare_func = "<="
+        self.shadow_tex.repeat_x = self.shadow_tex.repeat_y = False
+        self.shadow_fbo = ctx.framebuffer(depth_attachment=self.shadow_tex)
+
+        self.receiver_buf = DynamicBuffer(ctx, 6 * 12)
+        self.receiver = ctx.vertex_array(self.p_receiver, [(self.receiver_buf.buffer, "3f", "in_pos")])
+        self.line_buf = DynamicBuffer(ctx)
+        self.point_buf = DynamicBuffer(ctx)
+        self._overlay_vaos = {}
+        self._offscreen = {}
+        self._bones = bytearray(MAX_BONES * 64)
+        self._static_setup()
+
+    # ------------------------------------------------------------------ setup
+    def _static_setup(self):
+        for p in (self.p_skin, self.p_static, self.p_ground, self.p_receiver):
+            for k, v in LIGHTING.items():
+                set_uniform(p, k, v)
+            set_uniform(p, "u_shadow_texel", 1.0 / SHADOW_SIZE)
+            set_uniform(p, "u_shadow_map", 0)
+        light, tint = ground_light()
+        set_uniform(self.p_ground, "u_light", light)
+        set_uniform(self.p_receiver, "u_shadow_tint", tint)
+        for p in (self.p_skin, self.p_static):
+            set_uniform(p, "u_mode", 0)
+            set_uniform(p, "u_alpha", 1.0)
+            set_uniform(p, "u_tint", (1.0, 1.0, 1.0))
+            set_uniform(p, "u_emissive", (0.0, 0.0, 0.0))
+            set_uniform(p, "u_ghost_color", tuple(np.power((0.55, 0.78, 1.0), 2.2)))
+        set_uniform(self.p_sky, "u_sun_dir", tuple(SUN_DIR))
+        set_uniform(self.p_sky, "u_zenith", ZENITH)
+        set_uniform(self.p_sky, "u_horizon", HORIZON)
+
+    def _upload_bones(self, prog, skin_matrices: np.ndarray) -> None:
+        m = np.asarray(skin_matrices, np.float32)
+        data = mat_bytes(m)
+        self._bones[:len(data)] = data
+        prog["u_bones"].write(bytes(self._bones))
+
+    def joint_positions(self, skin_matrices: np.ndarray) -> np.ndarray:
+        """World joint positions ``(J,3)`` recovered from skinning matrices."""
+        m = np.asarray(skin_matrices, float)
+        return np.einsum("jab,jb->ja", m[:, :3, :3], self.bind_positions) + m[:, :3, 3]
+
+    # ------------------------------------------------------------------ passes
+    def _light_matrix(self, view: SceneView) -> np.ndarray:
+        pts = [np.array([[0.0, 0.0, 0.0], [0.0, 72.0, 0.0]])]
+        if view.skin_matrices is not None:
+            pts.append(self.joint_positions(view.skin_matrices))
+        if view.ball_position is not None:
+            b = np.asarray(view.ball_position, float)[None]
+            if pts[-1].size and np.linalg.norm(b - pts[-1].mean(0)) < 400:
+                pts.append(b)
+        pts = np.concatenate(pts)
+        centre = 0.5 * (pts.min(0) + pts.max(0))
+        radius = float(np.clip(np.linalg.norm(pts - centre, axis=1).max() + 60.0, 120.0, 700.0))
+        light_view = look_at(centre + SUN_DIR * 2000.0, centre, (0.0, 1.0, 0.0))
+        # snap to whole texels so the shadow edge does not shimmer as the pose moves
+        texel = 2 * radius / SHADOW_SIZE
+        light_view[:2, 3] = np.round(light_view[:2, 3] / texel) * texel
+        return orthographic(radius, radius, 2000.0 - 3 * radius, 2000.0 + 3 * radius) @ light_view
+
+    def _draw_shadow(self, view: SceneView, light_vp: np.ndarray) -> None:
+        ctx = self.ctx
+        self.shadow_fbo.use()
+        ctx.viewport = (0, 0, SHADOW_SIZE, SHADOW_SIZE)
+        self.shadow_fbo.clear(depth=1.0)
+        ctx.polygon_offset = (2.0, 4.0)
+        set_uniform(self.p_depth_skin, "u_view_proj", light_vp)
+        set_uniform(self.p_depth_static, "u_view_proj", light_vp)
+        if view.skin_matrices is not None:
+            self._upload_bones(self.p_depth_skin, view.skin_matrices)
+            self.body.depth.render()
+        set_uniform(self.p_depth_static, "u_model", np.eye(4, dtype=np.float32))
+        self.wickets.depth.render()
+        if view.ball_position is not None:
+            set_uniform(self.p_depth_static, "u_model", props.translation(view.ball_position))
+            self.ball.depth.render()
+        ctx.polygon_offset = (0.0, 0.0)
+
+    def render(self, view: SceneView, fbo=None) -> None:
+        """Draw the scene into ``fbo`` (default: the screen), including the shadow pass."""
+        import moderngl
+
+        ctx = self.ctx
+        target_fbo = fbo if fbo is not None else ctx.screen
+        w, h = view.size
+        vp = (np.asarray(view.proj, np.float32) @ np.asarray(view.view, np.float32))
+        self._vp = vp
+        eye = -np.asarray(view.view, float)[:3, :3].T @ np.asarray(view.view, float)[:3, 3]
+
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+        ctx.depth_func = "<"
+        light_vp = self._light_matrix(view)
+        shadows = bool(view.shadows)
+        if shadows:
+            self._draw_shadow(view, light_vp)
+
+        target_fbo.use()
+        ctx.viewport = (0, 0, w, h)
+        target_fbo.clear(*BACKGROUND, 1.0, depth=1.0)
+        self.shadow_tex.use(0)
+        for p in (self.p_skin, self.p_static, self.p_ground, self.p_receiver):
+            set_uniform(p, "u_view_proj", vp)
+            set_uniform(p, "u_eye", tuple(eye))
+            set_uniform(p, "u_light_vp", light_vp)
+            set_uniform(p, "u_shadow_on", 1.0 if shadows else 0.0)
+
+        # ground first, in painter's order; everything else depth-tested over it
+        if view.show_pitch:
+            ctx.depth_func = "1"
+            self.ground.render()
+            if shadows:
+                self._draw_receiver(light_vp)
+            ctx.depth_func = "<"
+        # every mesh is closed with outward winding (the helmet has a lining): cull back faces
+        ctx.enable(moderngl.CULL_FACE)
+        if view.skin_matrices is not None:
+            set_uniform(self.p_skin, "u_mode", 0)
+            self._upload_bones(self.p_skin, view.skin_matrices)
+            self.body.lit.render()
+        ident = np.eye(4, dtype=np.float32)
+        set_uniform(self.p_static, "u_mode", 0)
+        set_uniform(self.p_static, "u_model", ident)
+        self.wickets.lit.render()
+        if view.ball_position is not None:
+            set_uniform(self.p_static, "u_model", props.translation(view.ball_position))
+            self.ball.lit.render()
+        if view.target_position is not None:
+            set_uniform(self.p_static, "u_model", props.target_model(view.target_position, view.target_normal))
+            if view.target_highlight:
+                set_uniform(self.p_static, "u_emissive", (0.35, 0.30, 0.05))
+            self.target.lit.render()
+            set_uniform(self.p_static, "u_emissive", (0.0, 0.0, 0.0))
+        ctx.disable(moderngl.CULL_FACE)
+        ctx.depth_func = "<="
+        set_uniform(self.p_sky, "u_inv_view_proj", np.linalg.inv(vp.astype(float)).astype(np.float32))
+        self.sky.render(vertices=3)
+
+        # overlays and ghost (blended)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self._draw_overlays(view, vp, (w, h))
+        if view.ghost_skin_matrices is not None and view.ghost_alpha > 0:
+            ctx.enable(moderngl.CULL_FACE)
+            self._draw_ghost(view, target_fbo)
+            ctx.disable(moderngl.CULL_FACE)
+        ctx.disable(moderngl.BLEND)
+        ctx.depth_func = "<"
+
+    def _draw_receiver(self, light_vp: np.ndarray) -> None:
+        """Multiply the ground by the shadow inside the shadow map's footprint only."""
+        import moderngl
+
+        inv = np.linalg.inv(light_vp.astype(float))
+        corners = np.array([[-1, -1, -1, 1], [1, -1, -1, 1], [1, 1, -1, 1], [-1, 1, -1, 1]], float) @ inv.T
+        corners = corners[:, :3] / corners[:, 3:]
+        t = corners[:, 1] / SUN_DIR[1]           # slide each corner down the light ray to y = 0
+        g = corners - t[:, None] * SUN_DIR
+        g[:, 1] = 0.0
+        quad = g[[0, 1, 2, 0, 2, 3]].astype(np.float32)
+        self.receiver_buf.update(quad.tobytes())
+        ctx = self.ctx
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.DST_COLOR, moderngl.ZERO
+        self.receiver.render(vertices=6)
+        ctx.disable(moderngl.BLEND)
+
+    def _draw_ghost(self, view: SceneView, target_fbo) -> None:
+        ctx = self.ctx
+        self._upload_bones(self.p_skin, view.ghost_skin_matrices)
+        set_uniform(self.p_skin, "u_mode", 1)
+        set_uniform(self.p_skin, "u_alpha", float(view.ghost_alpha))
+        # depth pre-pass (cheap program, no colour) so only the nearest ghost surface blends
+        set_uniform(self.p_depth_skin, "u_view_proj", self._vp)
+        self._upload_bones(self.p_depth_skin, view.ghost_skin_matrices)
+        target_fbo.color_mask = (False, False, False, False)
+        self.body.depth.render()
+        target_fbo.color_mask = (True, True, True, True)
+        ctx.depth_func = "<="
+        ctx.depth_mask = False
+        self.body.lit.render()
+        ctx.depth_mask = True
+        set_uniform(self.p_skin, "u_mode", 0)
+
+    # ------------------------------------------------------------------ overlays
+    @staticmethod
+    def _line_vertices(view: SceneView) -> tuple[np.ndarray, np.ndarray]:
+        """Vertex rows (x,y,z,r,g,b,a,width) for depth-tested lines and for on-top lines."""
+        tested, on_top = [], []
+
+        def seg(a, b, rgba, width, out):
+            n = len(a)
+            v = np.empty((2 * n, 8), np.float32)
+            v[0::2, :3], v[1::2, :3] = a, b
+            v[:, 3:7] = rgba
+            v[:, 7] = width
+            out.append(v)
+
+        for pts, rgba, width in view.polylines:
+            pts = np.asarray(pts, float)
+            if len(pts) >= 2:
+                seg(pts[:-1], pts[1:], _rgba(rgba), width, tested)
+        for pts, rgba, size in view.crosses:
+            pts = np.asarray(pts, float).reshape(-1, 3)
+            for axis in np.eye(3):
+                seg(pts - axis * size / 2, pts + axis * size / 2, _rgba(rgba), 3.0, tested)
+        for pos, parents, rgba in view.skeleton_lines:
+            pos, parents = np.asarray(pos, float), np.asarray(parents)
+            child = np.nonzero(parents >= 0)[0]
+            seg(pos[parents[child]], pos[child], _rgba(rgba), view.skeleton_width_px,
+                on_top if view.skeleton_on_top else tested)
+        cat = lambda L: np.concatenate(L) if L else np.zeros((0, 8), np.float32)
+        return cat(tested), cat(on_top)
+
+    @staticmethod
+    def _point_vertices(view: SceneView) -> np.ndarray:
+        rows = []
+        for pts, rgba, size in view.points:
+            pts = np.asarray(pts, float).reshape(-1, 3)
+            v = np.empty((len(pts), 8), np.float32)
+            v[:, :3], v[:, 3:7], v[:, 7] = pts, _rgba(rgba), size
+            rows.append(v)
+        for pos, _, rgba in view.skeleton_lines:
+            pos = np.asarray(pos, float)
+            v = np.empty((len(pos), 8), np.float32)
+            c = np.array(_rgba(rgba))
+            v[:, :3], v[:, 3:7], v[:, 7] = pos, c, view.skeleton_width_px * 2.2
+            rows.append(v)
+        return np.concatenate(rows) if rows else np.zeros((0, 8), np.float32)
+
+    def _overlay_vao(self, key, prog, dyn: DynamicBuffer):
+        cached = self._overlay_vaos.get(key)
+        if cached is None or cached[0] != dyn.generation:
+            vao = self.ctx.vertex_array(prog, [(dyn.buffer, "3f 4f 1f", "in_pos", "in_color", "in_width")])
+            self._overlay_vaos[key] = (dyn.generation, vao)
+        return self._overlay_vaos[key][1]
+
+    def _draw_overlays(self, view: SceneView, vp: np.ndarray, size) -> None:
+        import moderngl
+
+        ctx = self.ctx
+        tested, on_top = self._line_vertices(view)
+        points = self._point_vertices(view)
+        if not (len(tested) or len(on_top) or len(points)):
+            return
+        for p in (self.p_line, self.p_point):
+            set_uniform(p, "u_view_proj", vp)
+            set_uniform(p, "u_viewport", (float(size[0]), float(size[1])))
+        ctx.depth_mask = False
+        lines = np.concatenate([tested, on_top])
+        if len(lines):
+            self.line_buf.update(lines.tobytes())
+            vao = self._overlay_vao("lines", self.p_line, self.line_buf)
+            if len(tested):
+                vao.render(moderngl.LINES, vertices=len(tested))
+            if len(on_top):
+                ctx.disable(moderngl.DEPTH_TEST)
+                vao.render(moderngl.LINES, vertices=len(on_top), first=len(tested))
+                ctx.enable(moderngl.DEPTH_TEST)
+        if len(points):
+            self.point_buf.update(points.tobytes())
+            vao = self._overlay_vao("points", self.p_point, self.point_buf)
+            n_user = sum(len(np.asarray(p[0]).reshape(-1, 3)) for p in view.points)
+            if n_user:
+                vao.render(moderngl.POINTS, vertices=n_user)
+            if len(points) > n_user:
+                if view.skeleton_on_top:
+                    ctx.disable(moderngl.DEPTH_TEST)
+                vao.render(moderngl.POINTS, vertices=len(points) - n_user, first=n_user)
+                ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_mask = True
+
+    # ------------------------------------------------------------------ offscreen
+    def offscreen_targets(self, size: tuple[int, int], samples: int = 4):
+        """(msaa_fbo, resolve_fbo) for ``size``, created once per size."""
+        key = (tuple(size), samples)
+        if key not in self._offscreen:
+            ctx = self.ctx
+            samples = min(samples, ctx.max_samples)
+            msaa = ctx.framebuffer(color_attachments=[ctx.renderbuffer(size, 4, samples=samples)],
+                                   depth_attachment=ctx.depth_renderbuffer(size, samples=samples))
+            resolve = ctx.framebuffer(color_attachments=[ctx.renderbuffer(size, 4)])
+            self._offscreen[key] = (msaa, resolve)
+        return self._offscreen[key]
+
+
+def _aces(c):
+    c = np.asarray(c, float)
+    return np.sqrt(np.clip((c * (2.51 * c + 0.03)) / (c * (2.43 * c + 0.59) + 0.14), 0, 1))
+
+
+def ground_light() -> tuple[tuple, tuple]:
+    """Linear irradiance on the flat ground, and the display-space ratio shadowed/lit (grass)."""
+    L = {k: np.asarray(v, float) for k, v in LIGHTING.items() if k != "u_haze_density"}
+    ambient = L["u_sky_ambient"] + L["u_fill_color"] * max(L["u_fill_dir"][1], 0)
+    lit = ambient + L["u_sun_color"] * max(L["u_sun_dir"][1], 0)
+    grass = np.power(props.GRASS, 2.2)
+    return tuple(lit), tuple(_aces(grass * ambient) / _aces(grass * lit))
+
+
+def _rgba(c) -> tuple:
+    c = tuple(float(x) for x in c)
+    return c if len(c) == 4 else c + (1.0,)
+
+
+def render_image(renderer: SceneRenderer, view: SceneView, samples: int = 4) -> np.ndarray:
+    """Render ``view`` offscreen with MSAA (4x by default); ``(h, w, 3)`` uint8, top row first."""
+    w, h = view.size
+    msaa, resolve = renderer.offscreen_targets((w, h), samples)
+    renderer.render(view, msaa)
+    renderer.ctx.copy_framebuffer(resolve, msaa)
+    data = resolve.read(components=3, alignment=1)
+    return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1].copy()

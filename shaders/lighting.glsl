@@ -1,0 +1,44 @@
+// Shared lighting: sun (key, casts the shadow) + fill + hemisphere ambient + a little rim,
+// an ACES-style tone curve, gamma 2 and haze toward the horizon colour.
+// llvmpipe is the target: no vec3 pow per pixel (colours are linearised per vertex),
+// one hardware-PCF shadow tap on shaded objects.
+uniform vec3 u_eye;
+uniform vec3 u_sun_dir;        // unit, towards the sun
+uniform vec3 u_sun_color;
+uniform vec3 u_fill_dir;       // unit, towards the fill light
+uniform vec3 u_fill_color;
+uniform vec3 u_sky_ambient;
+uniform vec3 u_ground_ambient;
+uniform vec3 u_haze_color;     // display colour of the sky at the horizon (applied after the tone curve)
+uniform sampler2DShadow u_shadow_map;
+uniform mat4 u_light_vp;
+uniform float u_shadow_on;
+
+float shadow_at(vec3 world_pos, vec3 n) {
+    // normal offset keeps surfaces from shadowing themselves
+    vec3 p = world_pos + n * 1.2 + u_sun_dir * 0.8;
+    vec3 uvz = (u_light_vp * vec4(p, 1.0)).xyz * 0.5 + 0.5;   // orthographic light: w = 1
+    float s = texture(u_shadow_map, uvz);
+    return mix(1.0, s, u_shadow_on);
+}
+
+vec3 shade(vec3 albedo, vec3 n, vec3 world_pos, float gloss, float shadow) {
+    vec3 v = normalize(u_eye - world_pos);
+    float ndl = max(dot(n, u_sun_dir), 0.0);
+    float fill = max(dot(n, u_fill_dir), 0.0);
+    vec3 ambient = mix(u_ground_ambient, u_sky_ambient, 0.5 + 0.5 * n.y);
+    vec3 h = normalize(u_sun_dir + v);
+    float spec_pow = mix(6.0, 120.0, gloss * gloss);
+    float spec = pow(max(dot(n, h), 0.0), spec_pow) * (0.04 + 0.5 * gloss) * (spec_pow + 8.0) / 25.0;
+    float r = 1.0 - max(dot(n, v), 0.0);
+    float rim = r * r * r * (0.35 + 0.65 * max(n.y, 0.0));
+    vec3 c = albedo * (ambient + u_sun_color * ndl * shadow + u_fill_color * fill);
+    c += u_sun_color * spec * ndl * shadow;
+    c += rim * 0.22 * u_sky_ambient * (0.5 + albedo);
+    return c;
+}
+
+vec3 tone(vec3 c) {
+    c = (c * (2.51 * c + 0.03)) / (c * (2.43 * c + 0.59) + 0.14);
+    return sqrt(clamp(c, 0.0, 1.0));
+}

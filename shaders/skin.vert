@@ -1,0 +1,28 @@
+#version 330
+// GPU linear-blend skinning: one bone-matrix array per draw, static vertex buffers.
+#include "haze.glsl"
+uniform mat4 u_view_proj;
+uniform mat4 u_bones[32];
+uniform vec3 u_eye;
+in vec3 in_pos;
+in vec3 in_normal;
+in vec4 in_color;
+in float in_gloss;
+in ivec4 in_joints;
+in vec4 in_weights;
+out vec3 v_world;
+out vec3 v_normal;
+out vec3 v_color;     // linear
+out float v_gloss;
+out float v_haze;
+void main() {
+    mat4 m = u_bones[in_joints.x] * in_weights.x + u_bones[in_joints.y] * in_weights.y
+           + u_bones[in_joints.z] * in_weights.z + u_bones[in_joints.w] * in_weights.w;
+    vec4 wp = m * vec4(in_pos, 1.0);
+    v_world = wp.xyz;
+    v_normal = mat3(m) * in_normal;
+    v_color = srgb_to_linear(in_color.rgb);
+    v_gloss = in_gloss;
+    v_haze = haze_keep(wp.xyz, u_eye);
+    gl_Position = u_view_proj * wp;
+}

@@ -1,0 +1,23 @@
+#version 330
+#include "haze.glsl"
+uniform mat4 u_view_proj;
+uniform mat4 u_model;
+uniform vec3 u_eye;
+in vec3 in_pos;
+in vec3 in_normal;
+in vec4 in_color;
+in float in_gloss;
+out vec3 v_world;
+out vec3 v_normal;
+out vec3 v_color;     // linear
+out float v_gloss;
+out float v_haze;
+void main() {
+    vec4 wp = u_model * vec4(in_pos, 1.0);
+    v_world = wp.xyz;
+    v_normal = mat3(u_model) * in_normal;
+    v_color = srgb_to_linear(in_color.rgb);
+    v_gloss = in_gloss;
+    v_haze = haze_keep(wp.xyz, u_eye);
+    gl_Position = u_view_proj * wp;
+}
