@@ -1,0 +1,124 @@
+"""Author the bundled shot library: assets/shots/<name>.bvh and library.json.
+
+Run ``python -m tools.make_shots`` (deterministic: fixed seeds, no clocks).
+``--check`` prints diagnostics only; ``--only NAME`` builds one shot.
+
+Route: key poses for pelvis, chest, head target, feet and bat (tools/shots_defs,
+with the measured figures they follow cited there) -> monotone cubic
+interpolation at 30 fps (tools/shots_keys) -> low-amplitude smooth noise on the
+upper body and bat, so no two shots move alike -> analytic IK for legs and
+arms with every joint built from its allowed DOFs (tools/shots_ik) -> BVH via
+engine.bvh.write. Every shot starts in the same stance frame and ends in the
+same rest frame: the noise fades out at both ends and the end frames are the
+shared key values exactly.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from engine import bvh
+from engine.rig import assets_dir, default_rig
+from engine.skeleton import Clip, clip_fk
+
+from . import shots_check as chk
+from .shots_defs import SHOTS
+from .shots_ik import PoseSolver, fit_torso
+from .shots_keys import FPS, targets, tracks
+
+# noise amplitude per channel (cm or degrees): a captured batsman never
+# repeats a key pose exactly; feet are left alone so planted feet stay planted
+NOISE = {"hips_pos": 0.5, "hips_ypr": 0.8, "chest_ypr": 1.2, "look": 4.0, "grip": 0.5,
+         "bat_d": 0.006, "bat_n": 0.01, "head_tilt": 1.5}
+SEED = 20240611
+
+
+def smooth_noise(rng: np.random.Generator, n: int, dims: int, cutoff_frames: float = 9.0) -> np.ndarray:
+    """Band-limited noise ``(n, dims)`` with unit standard deviation."""
+    white = rng.standard_normal((n + 60, dims))
+    k = np.exp(-0.5 * (np.arange(-30, 31) / (cutoff_frames / 2.0)) ** 2)
+    out = np.stack([np.convolve(white[:, d], k / k.sum(), "valid") for d in range(dims)], -1)[:n]
+    return out / np.maximum(out.std(axis=0), 1e-9)
+
+
+def envelope(n: int, ramp: int = 8) -> np.ndarray:
+    """0 on the first and last frame, 1 in the middle, smooth ramps ``(n,)``."""
+    x = np.ones(n)
+    r = np.arange(ramp) / ramp
+    s = r * r * (3 - 2 * r)
+    x[:ramp] = s
+    x[-ramp:] = s[::-1]
+    return x
+
+
+def build(name: str, rig=None, noise: bool = True):
+    """(skeleton, clip, hit_frame, description, info) for one shot."""
+    rig = rig or default_rig()
+    keys, description = SHOTS[name]()
+    t0, t1 = keys[0][0], keys[-1][0]
+    n_pre, n_post = int(round(-t0 * FPS)), int(round(t1 * FPS))
+    times = np.arange(-n_pre, n_post + 1) / FPS
+    tr = tracks(keys, times)
+    if noise:
+        rng = np.random.default_rng([SEED, sorted(SHOTS).index(name)])
+        env = envelope(len(times))[:, None]
+        for ch, amp in NOISE.items():
+            if ch in tr:
+                tr[ch] = tr[ch] + amp * env * smooth_noise(rng, len(times), tr[ch].shape[1])
+    solver = PoseSolver(rig)
+    T = targets(tr)
+    # lean the chest where the keyed torso would leave an arm locked or folded
+    tr["chest_ypr"] = tr["chest_ypr"] + fit_torso(solver, T, tr["chest_ypr"], envelope(len(times), 4))
+    T = targets(tr)
+    root, local, info = solver.solve(T)
+    clip = Clip(root, local, FPS)
+    return rig.skeleton, clip, n_pre, description, {"tracks": tr, **info}
+
+
+def report(rig, name, clip, hit):
+    g_rot, g_pos = clip_fk(rig.skeleton, clip)
+    sk = rig.skeleton
+    bat = g_pos[:, rig.bat_joint]
+    speed = np.linalg.norm(np.gradient(bat, axis=0), axis=-1) * FPS / 100
+    have, want = chk.right_grip_points(rig, g_rot, g_pos)
+    gerr = np.linalg.norm(have - want, axis=-1)
+    rpos, _ = chk.right_in_left(rig, g_rot, g_pos)
+    print(f"{name}: {clip.num_frames} frames, hit {hit}, hit point {np.round(bat[hit], 1)}, "
+          f"bat speed at hit {speed[hit]:.1f} m/s (max {speed.max():.1f} at {int(speed.argmax())})")
+    print(f"  right grip error max {gerr.max():.2f} cm, right-in-left std {rpos.std(0).max():.2f}")
+    for foot in ("LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase"):
+        p = g_pos[:, sk.index(foot)]
+        print(f"  {foot}: min y {p[:, 1].min():.2f}, drift {chk.foot_drift(p, FPS):.2f} cm, "
+              f"runs {chk.planted_runs(p, FPS)}")
+    for v in chk.limit_violations(rig, clip.local_rotations):
+        print("  LIMIT", v)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="diagnostics only, write nothing")
+    ap.add_argument("--only", help="build one shot")
+    ap.add_argument("--out", default=str(assets_dir() / "shots"))
+    a = ap.parse_args(argv)
+    rig = default_rig()
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    names = [a.only] if a.only else list(SHOTS)
+    manifest = []
+    for name in names:
+        skel, clip, hit, desc, _ = build(name, rig)
+        report(rig, name, clip, hit)
+        if not a.check:
+            bvh.write(out / f"{name}.bvh", skel, clip)
+        manifest.append({"name": name, "file": f"{name}.bvh", "hit_frame": hit, "description": desc})
+    if not a.check and not a.only:
+        bvh.atomic_write_text(out / "library.json", json.dumps(manifest, indent=1) + "\n")
+        print(f"wrote {len(manifest)} shots to {out}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

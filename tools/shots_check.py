@@ -1,0 +1,107 @@
+"""Measurements of authored shots, shared by make_shots (diagnostics) and the tests.
+
+Everything takes FK arrays: global rotations ``(F, J, 4)`` and positions ``(F, J, 3)``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from engine import quat
+
+
+def euler_zyx(local_rotations: np.ndarray) -> np.ndarray:
+    """Euler (z, y, x) degrees ``(F, J, 3)``, as the BVH stores them."""
+    return quat.to_euler(local_rotations, "ZYX")
+
+
+def limit_violations(rig, local_rotations: np.ndarray, tol: float = 0.5) -> list[str]:
+    """Human-readable list of limit / DOF violations beyond ``tol`` degrees."""
+    e = euler_zyx(local_rotations)
+    out = []
+    J = rig.skeleton.num_joints
+    for j in range(1, J):
+        if not rig.skeleton.channel_orders[j]:
+            continue
+        for a, axis in enumerate("zyx"):
+            v = e[:, j, a]
+            if rig.dof[j, a]:
+                lo, hi = rig.limits[j, a]
+                bad = (v < lo - tol) | (v > hi + tol)
+            else:
+                lo = hi = 0.0
+                bad = np.abs(v) > tol
+            if np.any(bad):
+                f = int(np.argmax(np.abs(np.where(bad, v - np.clip(v, lo, hi), 0))))
+                out.append(f"{rig.skeleton.names[j]}.{axis} = {v[f]:.1f} at frame {f} "
+                           f"(limits {lo:.0f}..{hi:.0f}, {int(bad.sum())} frames)")
+    return out
+
+
+def right_grip_points(rig, global_rotations, global_positions):
+    """Where the right palm is ``(F, 3)`` and where it should be on the handle ``(F, 3)``."""
+    sk = rig.skeleton
+    lh, rh = sk.index("LeftHand"), sk.index("RightHand")
+    grip = np.array(rig.bat["left_grip"], float)
+    axis = np.array(rig.bat["axis"], float)
+    want = global_positions[:, lh] + quat.rotate(global_rotations[:, lh],
+                                                  grip + axis * rig.bat["right_grip_below_left"])
+    right_palm = grip * np.array([-1.0, 1.0, 1.0])
+    have = global_positions[:, rh] + quat.rotate(global_rotations[:, rh], right_palm)
+    return have, want
+
+
+def right_in_left(rig, global_rotations, global_positions):
+    """Right hand position ``(F, 3)`` and rotation ``(F, 4)`` in the left hand's frame."""
+    sk = rig.skeleton
+    lh, rh = sk.index("LeftHand"), sk.index("RightHand")
+    inv = quat.conjugate(global_rotations[:, lh])
+    pos = quat.rotate(inv, global_positions[:, rh] - global_positions[:, lh])
+    return pos, quat.mul(inv, global_rotations[:, rh])
+
+
+def planted_runs(positions: np.ndarray, fps: float, height_tol: float = 0.5,
+                 speed_tol: float = 6.0) -> list[tuple[int, int]]:
+    """Runs of frames ``[a, b)`` where a foot joint ``(F, 3)`` is down and still.
+
+    Down: within ``height_tol`` cm of its lowest height in the clip; still:
+    speed below ``speed_tol`` cm/s (central differences).
+    """
+    y = positions[:, 1]
+    v = np.linalg.norm(np.gradient(positions, axis=0), axis=-1) * fps
+    down = (y <= y.min() + height_tol) & (v < speed_tol)
+    runs, a = [], None
+    for f, d in enumerate(list(down) + [False]):
+        if d and a is None:
+            a = f
+        elif not d and a is not None:
+            if f - a >= 3:
+                runs.append((a, f))
+            a = None
+    return runs
+
+
+def foot_drift(positions: np.ndarray, fps: float) -> float:
+    """Largest horizontal drift (cm) of a foot joint within any planted run."""
+    worst = 0.0
+    for a, b in planted_runs(positions, fps):
+        p = positions[a:b][:, [0, 2]]
+        worst = max(worst, float(np.max(np.linalg.norm(p - p[0], axis=-1))))
+    return worst
+
+
+def centre_of_mass(rig, global_positions: np.ndarray) -> np.ndarray:
+    """Approximate whole-body centre of mass ``(F, 3)`` (segment fractions after
+    Winter's anthropometric tables: head 8.1 %, trunk 49.7 %, upper arm 2.8 %,
+    forearm 1.6 %, hand 0.6 %, thigh 10 %, shank 4.65 %, foot 1.45 %)."""
+    sk = rig.skeleton
+    P = lambda n: global_positions[:, sk.index(n)]
+    segs = [(0.081, P("Head")), (0.497, (P("Hips") + P("Spine2")) / 2)]
+    for s in ("Left", "Right"):
+        segs += [(0.028, (P(s + "Arm") + P(s + "ForeArm")) / 2),
+                 (0.016, (P(s + "ForeArm") + P(s + "Hand")) / 2),
+                 (0.006, P(s + "Hand")),
+                 (0.100, (P(s + "UpLeg") + P(s + "Leg")) / 2),
+                 (0.0465, (P(s + "Leg") + P(s + "Foot")) / 2),
+                 (0.0145, (P(s + "Foot") + P(s + "ToeBase")) / 2)]
+    m = sum(w for w, _ in segs)
+    return sum(w * p for w, p in segs) / m

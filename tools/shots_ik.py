@@ -1,0 +1,349 @@
+"""Pose solving for the shot authoring script: world targets -> rig local rotations.
+
+All functions work on whole clips at once (leading frame axis F); rotations are
+3x3 matrices ``(F, 3, 3)`` (columns = the joint's local axes in world) until the
+end, where they become (w, x, y, z) quaternions. Every joint's local rotation
+is *built from its allowed Euler DOFs* (e.g. the elbow is a pure Ry, the hand a
+pure Rz Ry), so the stored BVH holds exactly the pose that FK reproduces.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from engine import quat
+from engine.skeleton import forward_kinematics
+
+
+# ----------------------------------------------------------------- small maths
+def unit(v: np.ndarray) -> np.ndarray:
+    """Unit vectors ``(..., 3)``."""
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
+
+
+def perp(v: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Component of ``v`` perpendicular to the unit ``axis`` (both ``(..., 3)``)."""
+    return v - np.sum(v * axis, axis=-1, keepdims=True) * axis
+
+
+def rot_axis(axis: int, deg: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` about a principal axis (0 x, 1 y, 2 z)."""
+    return quat.to_matrix(quat._axis_quat(axis, np.asarray(deg, float)))
+
+
+def frame_from_yz(y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Orthonormal frame with Y exactly along ``y`` and Z as close to ``z`` as possible."""
+    Y = unit(y)
+    Z = unit(perp(z, Y))
+    X = np.cross(Y, Z)
+    return np.stack([X, Y, Z], axis=-1)
+
+
+def ypr(yaw, pitch, roll) -> np.ndarray:
+    """World orientation of a body part from yaw (about world Y; 0 faces +Z),
+    pitch (forward bend about the part's own X) and roll (about its own Z):
+    R = Ry(yaw) Rx(pitch) Rz(roll), ``(F, 3, 3)``."""
+    return rot_axis(1, yaw) @ rot_axis(0, pitch) @ rot_axis(2, roll)
+
+
+def to_q(m: np.ndarray) -> np.ndarray:
+    return quat.normalize(quat.from_matrix(m))
+
+
+def euler(m: np.ndarray, order: str) -> np.ndarray:
+    """Euler degrees of rotation matrices in ``order`` (R = R_o0 R_o1 R_o2)."""
+    return quat.to_euler(to_q(m), order)
+
+
+def rel(parent: np.ndarray, child: np.ndarray) -> np.ndarray:
+    """Local rotation of ``child`` under ``parent`` (both global, ``(F, 3, 3)``)."""
+    return np.swapaxes(parent, -1, -2) @ child
+
+
+def split_rotation(m: np.ndarray, parts: int) -> np.ndarray:
+    """The rotation whose ``parts``-th power is ``m`` (same axis, angle / parts)."""
+    return quat.to_matrix(quat.exp(quat.log(to_q(m)) / parts))
+
+
+# ----------------------------------------------------------------- two-bone IK
+def two_bone(root: np.ndarray, target: np.ndarray, l1: float, l2: float,
+             hint: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Middle-joint position for a two-bone chain ``(F, 3)``.
+
+    The middle joint lies on the circle of solutions on the side of ``hint``.
+    Returns (middle, reached_target, bend_dir) where ``bend_dir`` is the unit
+    direction from the root-target line toward the middle joint.
+    Out-of-reach targets are pulled in to 99.9 % of full extension.
+    """
+    d = target - root
+    D = np.linalg.norm(d, axis=-1, keepdims=True)
+    u = d / np.maximum(D, 1e-9)
+    Dc = np.clip(D, abs(l1 - l2) + 1e-3, (l1 + l2) * 0.999)
+    reached = root + u * Dc
+    k = unit(perp(hint - root, u))
+    a = (l1 * l1 - l2 * l2 + Dc * Dc) / (2 * Dc)
+    h = np.sqrt(np.maximum(l1 * l1 - a * a, 0.0))
+    return root + a * u + h * k, reached, k
+
+
+# ----------------------------------------------------------------- the solver
+RIGHT_GRIP_EXT = -40.0     # deg, see PoseSolver.__init__
+RIGHT_GRIP_DEV = 60.0
+
+class PoseSolver:
+    """Turns world-space targets into local rotations for ``rig.skeleton``."""
+
+    def __init__(self, rig):
+        self.rig = rig
+        sk = rig.skeleton
+        self.sk = sk
+        self.ix = {n: i for i, n in enumerate(sk.names)}
+        self.off = sk.offsets
+        bat = rig.bat
+        self.left_grip = np.array(bat["left_grip"], float)
+        self.axis = np.array(bat["axis"], float)
+        self.right_below = float(bat["right_grip_below_left"])
+        # right palm centre in RightHand's frame: the mirror of the left grip
+        self.right_grip = self.left_grip * np.array([-1.0, 1.0, 1.0])
+        # the right hand holds the handle palm-forward: its frame is the left
+        # hand's turned 180 degrees about the handle, then tilted so that the
+        # handle lies diagonally across the palm and fingers as in a real grip
+        # (wrist extended ~40, deviated ~60 toward the toe from square): the
+        # bottom forearm points more along the face normal than the top one
+        self.right_in_left = rot_axis(2, 180.0) @ rot_axis(1, -RIGHT_GRIP_DEV) @ rot_axis(2, -RIGHT_GRIP_EXT)
+
+    # ---- helpers
+    def bone(self, name: str) -> float:
+        return float(np.linalg.norm(self.off[self.ix[name]]))
+
+    def fk(self, root_pos: np.ndarray, local_m: np.ndarray):
+        """Global rotation matrices and positions from local matrices ``(F, J, 3, 3)``."""
+        F = root_pos.shape[0]
+        t = np.broadcast_to(self.off, (F,) + self.off.shape).copy()
+        t[:, 0] = root_pos
+        g_rot, g_pos = forward_kinematics(self.sk.parents, t, to_q(local_m))
+        return quat.to_matrix(g_rot), g_pos
+
+    def hand_targets(self, grip: np.ndarray, bat_rot: np.ndarray):
+        """Wrist positions and hand rotations of both hands from the bat pose.
+
+        ``grip``: left grip point (F,3); ``bat_rot``: LeftHand global rotation.
+        """
+        l_wrist = grip - bat_rot @ self.left_grip
+        r_rot = bat_rot @ self.right_in_left
+        r_grip = grip + bat_rot @ (self.axis * self.right_below)
+        r_wrist = r_grip - r_rot @ self.right_grip
+        return l_wrist, bat_rot, r_wrist, r_rot
+
+    # ---- solve
+    def solve(self, T: dict) -> tuple[np.ndarray, np.ndarray, dict]:
+        """World targets ``T`` -> (root_positions (F,3), local_rotations (F,J,4), info).
+
+        Keys of ``T`` (all per frame): hips_pos, hips_rot, chest_rot, head_rot,
+        {l,r}_ankle, {l,r}_foot_rot, {l,r}_toe_bend (deg), {l,r}_knee_dir,
+        grip, bat_rot, wrist_pref (deg, radial deviation preferred), clavicle_gain.
+        """
+        ix = self.ix
+        F = T["hips_pos"].shape[0]
+        J = self.sk.num_joints
+        L = np.broadcast_to(np.eye(3), (F, J, 3, 3)).copy()
+        L[:, 0] = T["hips_rot"]
+        spine = split_rotation(rel(T["hips_rot"], T["chest_rot"]), 3)
+        for n in ("Spine", "Spine1", "Spine2"):
+            L[:, ix[n]] = spine
+        head_rot = T.get("head_rot")
+        if head_rot is None:
+            # eyes level and on the ball: look from roughly the eyes at T["look"]
+            _, g0 = self.fk(T["hips_pos"], L)
+            eye = g0[:, ix["Neck"]] + T["chest_rot"] @ np.array([0.0, 18.0, 9.0])
+            head_rot = look_rotation(eye, T["look"])
+            if "head_tilt" in T:
+                head_rot = head_rot @ rot_axis(2, T["head_tilt"])
+        neck = split_rotation(rel(T["chest_rot"], head_rot), 2)
+        L[:, ix["Neck"]] = neck
+        L[:, ix["Head"]] = neck
+        g_rot, g_pos = self.fk(T["hips_pos"], L)
+        info = {}
+        # legs
+        for side, pre in (("l", "Left"), ("r", "Right")):
+            self._leg(L, g_rot, g_pos, T, side, pre)
+        # clavicles lean a little toward their hand, then the arms
+        l_wrist, l_rot, r_wrist, r_rot = self.hand_targets(T["grip"], T["bat_rot"])
+        gain = T.get("clavicle_gain", np.full(F, 0.5))
+        for pre, wrist, s in (("Left", l_wrist, 1.0), ("Right", r_wrist, -1.0)):
+            self._clavicle(L, g_rot, g_pos, pre, wrist, s, gain)
+        g_rot, g_pos = self.fk(T["hips_pos"], L)
+        pref = T["wrist_pref"]
+        for pre, wrist, hrot, s, pr in (("Left", l_wrist, l_rot, 1.0, pref), ("Right", r_wrist, r_rot, -1.0, 0 * pref)):
+            info[pre + "_reach"] = self._arm(L, g_rot, g_pos, pre, wrist, hrot, s, pr)
+        return T["hips_pos"], quat.make_continuous(to_q(L)), info
+
+    def _leg(self, L, g_rot, g_pos, T, side, pre):
+        ix = self.ix
+        up, leg, foot, toe = (ix[pre + n] for n in ("UpLeg", "Leg", "Foot", "ToeBase"))
+        hip = g_pos[:, up]
+        ankle = T[side + "_ankle"]
+        l1, l2 = self.bone(pre + "Leg"), self.bone(pre + "Foot")
+        knee, ankle_r, _ = two_bone(hip, ankle, l1, l2, hip + T[side + "_knee_dir"] * 100.0)
+        down = unit(knee - hip)                    # thigh direction = -Y of UpLeg
+        fwd = perp(unit(T[side + "_knee_dir"]), down)
+        shin = unit(ankle_r - knee)
+        fwd = np.where(np.linalg.norm(perp(shin, down), axis=-1, keepdims=True) > 1e-6,
+                       -perp(shin, down), fwd)     # knee points away from the shin's bend
+        thigh = frame_from_yz(-down, fwd)
+        L[:, up] = rel(g_rot[:, 0], thigh)
+        flex = np.degrees(np.arccos(np.clip(np.sum(down * shin, -1), -1, 1)))
+        L[:, leg] = rot_axis(0, flex)
+        shin_rot = thigh @ L[:, leg]
+        L[:, foot] = rel(shin_rot, T[side + "_foot_rot"])
+        L[:, toe] = rot_axis(0, T[side + "_toe_bend"])
+
+    def _clavicle(self, L, g_rot, g_pos, pre, wrist, s, gain):
+        ix = self.ix
+        c = ix[pre + "Shoulder"]
+        chest = g_rot[:, ix["Spine2"]]
+        v = np.einsum("fji,fj->fi", chest, wrist - g_pos[:, c])   # in the chest frame
+        elev = np.degrees(np.arctan2(v[:, 1], np.hypot(v[:, 0], v[:, 2])))
+        prot = np.degrees(np.arctan2(v[:, 2], s * v[:, 0]))
+        lim = self.rig.limits[c]
+        z = np.clip(s * gain * (elev + 20.0), *lim[0])      # arms hang ~20 deg below level
+        y = np.clip(-s * gain * 0.5 * prot, *lim[1])
+        L[:, c] = rot_axis(2, z) @ rot_axis(1, y)
+
+    def _arm(self, L, g_rot, g_pos, pre, wrist, hand_rot, s, pref):
+        """Two-bone arm: Arm(z,y)+ArmRoll(x) swing/twist, ForeArm pure y, ForeArmRoll x, Hand (z,y).
+
+        The elbow may sit anywhere on its circle of solutions; a Viterbi pass
+        over 72 elbow angles per frame picks the path whose joint angles stay
+        comfortably inside the limits (wrist near its preferred deviation,
+        small twists) and that moves smoothly from frame to frame.
+        """
+        ix = self.ix
+        names = ("Arm", "ArmRoll", "ForeArm", "ForeArmRoll", "Hand")
+        arm, roll, fore, froll, hand = (ix[pre + n] for n in names)
+        S = g_pos[:, arm]
+        l1 = self.bone(pre + "ArmRoll") + self.bone(pre + "ForeArm")
+        l2 = self.bone(pre + "ForeArmRoll") + self.bone(pre + "Hand")
+        parent = g_rot[:, ix[pre + "Shoulder"]]
+        psi = np.radians(np.arange(0, 360, 5.0))
+        ang = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[None, :])
+        cost = self._arm_cost(ang, pre, s, pref[:, None])
+        choice = viterbi(cost, psi, weight=40.0)
+        best = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[choice][:, None])
+        e, flex, h = (best[k][:, 0] for k in ("upper", "flex", "hand"))
+        L[:, arm] = rot_axis(2, e[:, 0]) @ rot_axis(1, e[:, 1]) @ rot_axis(0, e[:, 2] / 2)
+        L[:, roll] = rot_axis(0, e[:, 2] / 2)
+        L[:, fore] = rot_axis(1, -s * flex)
+        L[:, froll] = rot_axis(0, h[:, 0])
+        L[:, hand] = rot_axis(2, h[:, 1]) @ rot_axis(1, h[:, 2])
+        return np.linalg.norm(wrist - S, axis=-1) / (l1 + l2)
+
+    def _arm_angles(self, S, W, hand_rot, parent, l1, l2, s, psi):
+        """Joint angles for elbow circle angles ``psi (F or 1, K)``: dict of (F, K, ...) arrays."""
+        d = W - S
+        D = np.linalg.norm(d, axis=-1, keepdims=True)
+        u = d / np.maximum(D, 1e-9)
+        D = np.clip(D, abs(l1 - l2) + 1e-3, (l1 + l2) * 0.999)
+        Wr = S + u * D
+        a = (l1 * l1 - l2 * l2 + D * D) / (2 * D)
+        h = np.sqrt(np.maximum(l1 * l1 - a * a, 1e-6))
+        ref = np.where(np.abs(u[:, 1:2]) < 0.9, np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]))
+        e1 = unit(perp(ref, u))
+        e2 = np.cross(u, e1)
+        c, sn = np.cos(psi)[..., None], np.sin(psi)[..., None]
+        k = c * e1[:, None] + sn * e2[:, None]                     # (F, K, 3)
+        E = (S + a * u)[:, None] + h[:, None] * k
+        up_dir = unit(E - S[:, None])
+        fdir = unit(Wr[:, None] - E)
+        Z = unit(perp(fdir, up_dir))
+        X = s * up_dir
+        Y = np.cross(Z, X)
+        upper = np.stack([X, Y, np.cross(X, Y)], -1)                # (F, K, 3, 3)
+        e = euler(rel(parent[:, None], upper), "ZYX")
+        flex = np.degrees(np.arccos(np.clip(np.sum(up_dir * fdir, -1), -1, 1)))
+        forearm = upper @ rot_axis(1, -s * flex)
+        hh = euler(rel(forearm, hand_rot[:, None]), "XZY")          # Rx(twist) Rz(a) Ry(b)
+        return {"upper": e, "flex": flex, "hand": hh, "elbow": E}
+
+    def _arm_cost(self, ang, pre, s, pref):
+        lim = self.rig.limits
+        ix = self.ix
+        e, h = ang["upper"], ang["hand"]
+        over = lambda v, j, c: np.maximum(0, lim[j, c, 0] - v) + np.maximum(0, v - lim[j, c, 1])
+        viol = (over(e[..., 0], ix[pre + "Arm"], 0) + over(e[..., 1], ix[pre + "Arm"], 1)
+                + over(e[..., 2] / 2, ix[pre + "Arm"], 2) + over(h[..., 0], ix[pre + "ForeArmRoll"], 2)
+                + over(h[..., 1], ix[pre + "Hand"], 0) + over(h[..., 2], ix[pre + "Hand"], 1))
+        # elbows hang: prefer the elbow below the shoulder-wrist line
+        return ((h[..., 1] / 35.0) ** 2 + ((s * h[..., 2] + pref) / 20.0) ** 2
+                + (h[..., 0] / 60.0) ** 2 + (e[..., 2] / 80.0) ** 2 + 50.0 * viol ** 2)
+
+
+def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float) -> np.ndarray:
+    """Cheapest path of indices ``(F,)`` through ``cost (F, K)`` with a
+    ``weight * (circular angle step in radians)^2`` charge between frames."""
+    F, K = cost.shape
+    step = np.abs(np.angle(np.exp(1j * (psi[:, None] - psi[None, :]))))
+    trans = weight * step ** 2
+    acc = cost[0].copy()
+    back = np.zeros((F, K), int)
+    for f in range(1, F):
+        tot = acc[:, None] + trans                 # from i to j
+        back[f] = np.argmin(tot, axis=0)
+        acc = tot[back[f], np.arange(K)] + cost[f]
+    path = np.zeros(F, int)
+    path[-1] = int(np.argmin(acc))
+    for f in range(F - 1, 0, -1):
+        path[f - 1] = back[f, path[f]]
+    return path
+
+
+def look_rotation(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """A level head (no roll) whose +Z looks from ``eye`` at ``target``, ``(F, 3, 3)``."""
+    z = unit(target - eye)
+    x = unit(np.cross(np.array([0.0, 1.0, 0.0]), z))
+    return np.stack([x, np.cross(z, x), z], -1)
+
+
+def shoulder_positions(solver: PoseSolver, hips_pos, hips_rot, chest_rot) -> np.ndarray:
+    """Left and right Arm joint positions ``(..., 2, 3)`` for a torso pose
+    (clavicles at rest), with the spine bent evenly as ``solve`` does it."""
+    off = solver.off
+    ix = solver.ix
+    step = split_rotation(rel(hips_rot, chest_rot), 3)
+    p = hips_pos + hips_rot @ off[ix["Spine"]]
+    r = hips_rot
+    for n in ("Spine1", "Spine2"):
+        r = r @ step
+        p = p + r @ off[ix[n]]
+    out = []
+    for pre in ("Left", "Right"):
+        base = p + chest_rot @ off[ix[pre + "Shoulder"]]
+        out.append(base + chest_rot @ off[ix[pre + "Arm"]])
+    return np.stack(out, -2)
+
+
+def fit_torso(solver: PoseSolver, T: dict, chest_ypr: np.ndarray, env: np.ndarray,
+              lo: float = 0.74, hi: float = 0.9) -> np.ndarray:
+    """Small per-frame chest yaw/pitch/roll offsets ``(F, 3)`` that keep both
+    arms' shoulder-to-wrist distance inside [lo, hi] of full reach (elbows
+    neither locked straight nor folded past 90 degrees), found by grid search,
+    then smoothed over time and faded out by ``env`` (F,)."""
+    l_wrist, _, r_wrist, _ = solver.hand_targets(T["grip"], T["bat_rot"])
+    full = (solver.bone("LeftArmRoll") + solver.bone("LeftForeArm")
+            + solver.bone("LeftForeArmRoll") + solver.bone("LeftHand"))
+    g = np.arange(-30.0, 30.1, 5.0)
+    dy, dp, dr = (a.ravel() for a in np.meshgrid(g, g, g, indexing="ij"))
+    F = chest_ypr.shape[0]
+    best = np.zeros((F, 3))
+    for f in range(F):
+        c = ypr(chest_ypr[f, 0] + dy, chest_ypr[f, 1] + dp, chest_ypr[f, 2] + dr)
+        sh = shoulder_positions(solver, T["hips_pos"][f], T["hips_rot"][f], c)
+        cost = (dy / 15.0) ** 2 + (dp / 15.0) ** 2 + (dr / 15.0) ** 2
+        for k, w in ((0, l_wrist[f]), (1, r_wrist[f])):
+            r = np.linalg.norm(w - sh[:, k], axis=-1) / full
+            cost = cost + (np.maximum(0, r - hi) / 0.02) ** 2 + (np.maximum(0, lo - r) / 0.02) ** 2
+        best[f] = (dy[np.argmin(cost)], dp[np.argmin(cost)], dr[np.argmin(cost)])
+    k = np.exp(-0.5 * (np.arange(-6, 7) / 2.0) ** 2)
+    k /= k.sum()
+    pad = np.pad(best, ((6, 6), (0, 0)), mode="edge")
+    smooth = np.stack([np.convolve(pad[:, i], k, "valid") for i in range(3)], -1)
+    return smooth * env[:, None]

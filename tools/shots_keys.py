@@ -1,0 +1,100 @@
+"""Key poses -> per-frame world targets for the shot solver.
+
+A shot is a list of ``(t, {channel: value})`` keys, ``t`` in seconds relative
+to impact (t = 0 is the hit frame). Each channel is interpolated on its own
+keys with a monotone cubic (PCHIP): no overshoot, so a planted foot keyed
+twice at the same spot stays exactly there, and a hold is a hold.
+
+Channels (world space, cm / degrees):
+  hips_pos (3), hips_ypr (3)      pelvis position, yaw/pitch/roll (see shots_ik.ypr)
+  chest_ypr (3)                   Spine2 orientation
+  look (3)                        point the eyes look at (head stays level)
+  l_toe, r_toe (3)                ball of the foot (ToeBase joint)
+  l_yaw, r_yaw, l_heel, r_heel    foot direction; heel raise about the toe (deg)
+  grip (3) or hit (3) or toe (3)  left grip point / bat-joint at impact / bat toe
+  bat_d (3), bat_n (3)            bat axis handle->toe and face normal (world)
+  wrist_pref (1)                  preferred radial deviation of the wrists (deg)
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+
+from .shots_ik import rot_axis, unit, perp, ypr
+
+FPS = 30.0
+ANKLE_ABOVE_TOE = np.array([0.0, -6.0, 13.0])   # ToeBase offset under Foot (rig)
+GRIP_TO_TOE = 81.0                                # bat length 86 - grip_to_top 5
+BAT_FROM_GRIP = np.array([0.0, 6.6, -53.0])       # Bat joint - left grip, in LeftHand frame
+
+VECTOR = {"hips_pos": 3, "hips_ypr": 3, "chest_ypr": 3, "look": 3, "l_toe": 3, "r_toe": 3,
+          "l_yaw": 1, "r_yaw": 1, "l_heel": 1, "r_heel": 1, "grip": 3, "bat_d": 3, "bat_n": 3,
+          "wrist_pref": 1, "head_tilt": 1}
+
+
+def bat_frame(d: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """LeftHand world rotation ``(..., 3, 3)`` from the bat axis (exact) and face normal."""
+    Z = -unit(d)
+    Y = unit(perp(n, Z))
+    X = np.cross(Y, Z)
+    return np.stack([X, Y, Z], -1)
+
+
+def grip_from_hit(hit, d, n) -> np.ndarray:
+    """Left grip point that puts the Bat joint at ``hit`` with bat axis d and face n."""
+    return np.asarray(hit, float) - bat_frame(np.asarray(d, float), np.asarray(n, float)) @ BAT_FROM_GRIP
+
+
+def resolve_bat_keys(keys: list) -> list:
+    """Turn 'hit' and 'toe' bat keys into 'grip' keys (per key, exact)."""
+    out = []
+    for t, k in keys:
+        k = dict(k)
+        if "hit" in k:
+            k["grip"] = grip_from_hit(k.pop("hit"), k["bat_d"], k["bat_n"])
+        if "toe" in k:
+            k["grip"] = np.asarray(k.pop("toe"), float) - GRIP_TO_TOE * unit(np.asarray(k["bat_d"], float))
+        out.append((t, k))
+    return out
+
+
+def sample(keys: list, channel: str, times: np.ndarray) -> np.ndarray:
+    """Channel values at ``times`` ``(F, n)``; exact key values at both ends."""
+    pts = [(t, np.atleast_1d(np.asarray(k[channel], float))) for t, k in keys if channel in k]
+    ts = np.array([p[0] for p in pts])
+    vs = np.stack([p[1] for p in pts])
+    if len(pts) < 2 or np.any(np.diff(ts) <= 0):
+        raise ValueError(f"channel {channel}: keys must be at increasing times ({ts})")
+    out = PchipInterpolator(ts, vs, axis=0)(np.clip(times, ts[0], ts[-1]))
+    out[times <= ts[0]] = vs[0]
+    out[times >= ts[-1]] = vs[-1]
+    return out
+
+
+def tracks(keys: list, times: np.ndarray) -> dict:
+    keys = resolve_bat_keys(keys)
+    return {c: sample(keys, c, times) for c in VECTOR if any(c in k for _, k in keys)}
+
+
+def targets(tr: dict) -> dict:
+    """Solver targets (see ``PoseSolver.solve``) from sampled tracks."""
+    T = {"hips_pos": tr["hips_pos"],
+         "hips_rot": ypr(*tr["hips_ypr"].T),
+         "chest_rot": ypr(*tr["chest_ypr"].T),
+         "look": tr["look"],
+         "grip": tr["grip"],
+         "bat_rot": bat_frame(tr["bat_d"], tr["bat_n"]),
+         "wrist_pref": tr["wrist_pref"][:, 0]}
+    if "head_tilt" in tr:
+        T["head_tilt"] = tr["head_tilt"][:, 0]
+    for s in ("l", "r"):
+        yaw, heel = tr[s + "_yaw"][:, 0], tr[s + "_heel"][:, 0]
+        foot = rot_axis(1, yaw) @ rot_axis(0, heel)
+        T[s + "_foot_rot"] = foot
+        T[s + "_ankle"] = tr[s + "_toe"] - foot @ ANKLE_ABOVE_TOE
+        # toes stay flat on the ground while the heel is up
+        T[s + "_toe_bend"] = np.clip(-heel, -60.0, 30.0)
+        # knees point over the toes, a little outward
+        side = 1.0 if s == "l" else -1.0
+        T[s + "_knee_dir"] = foot @ unit(np.array([0.12 * side, 0.0, 1.0]))
+    return T
