@@ -161,6 +161,7 @@ def style_report(rig, shots, offsets: list[float], falloff: float, solver: str) 
             r2 = float(np.sqrt(np.mean([e[f"{p}_dof2"] ** 2 for e in per])))
             summary[p] = {"dof0": round(r0, 4), "dof2": round(r2, 4),
                           "dof0_better": bool(r0 < r2),
+                          "offsets_dof0_better": f"{sum(e[f'{p}_dof0'] < e[f'{p}_dof2'] for e in per)}/{len(per)}",
                           "difference_percent": round(100 * (r2 - r0) / r0, 1) if r0 > 0 else None}
         results.append({"name": s.name, **summary,
                         "agrees_with_dissertation": summary["upper"]["dof0_better"],
@@ -274,14 +275,14 @@ def _render_strip_sticks(rig, root, rot, cell: int):
     centre = root.reshape(-1, 3).mean(axis=0)
     pts = g_pos - centre
     scale = cell / 260.0
-    img = Image.new("RGB", (cols * cell, rows * cell + 30), (245, 245, 240))
+    img = Image.new("RGB", (cols * cell, rows * cell + 46), (245, 245, 240))
     draw = ImageDraw.Draw(img)
     names = rig.skeleton.names
     parents = rig.skeleton.parents
 
     def to_px(v, r, c):
         x = c * cell + cell / 2 + scale * float(v @ right)
-        y = 30 + r * cell + cell * 0.42 - scale * float(v @ up)
+        y = 46 + r * cell + cell * 0.42 - scale * float(v @ up)
         return (x, y)
 
     for i in range(rows * cols):
@@ -311,29 +312,33 @@ def _render_strip_gl(rig, root, rot, cell: int):
     renderer = rs.SceneRenderer(ctx, rig)
     centre = root.reshape(-1, 3).mean(axis=0)
     right, up, f = _view_axes()
-    target = np.array([centre[0], 100.0, centre[2]])
-    eye = target - f * 420.0
+    target = np.array([centre[0], 88.0, centre[2]])
+    eye = target - f * 600.0
     view = rs.look_at(eye, target)
     proj = rs.perspective(30.0, 1.0, 10.0, 5000.0)
-    img = Image.new("RGB", (cols * cell, rows * cell + 30), (245, 245, 240))
+    img = Image.new("RGB", (cols * cell, rows * cell + 46), (245, 245, 240))
     for i in range(rows * cols):
         sv = rs.SceneView(view=np.asarray(view, np.float32), proj=np.asarray(proj, np.float32),
                           size=(cell, cell), skin_matrices=skin[i], show_pitch=True)
         tile = rs.render_image(renderer, sv)
         r, c = divmod(i, cols)
-        img.paste(Image.fromarray(np.asarray(tile, np.uint8)), (c * cell, 30 + r * cell))
+        img.paste(Image.fromarray(np.asarray(tile, np.uint8)), (c * cell, 46 + r * cell))
     return img
 
 
 def _label_strip(img, name, part, p, sds, cell):
+    """Title and column labels in the top band; a boxed label on each row."""
     from PIL import ImageDraw
     draw = ImageDraw.Draw(img)
     cum = p.cumulative
-    draw.text((6, 8), f"{name}: {part} PCA, PC1..3 capture {100 * cum[min(2, len(cum) - 1)]:.1f}% "
-                      f"(columns {sds[0]:+d} .. {sds[-1]:+d} SD of the observed scores)", fill=(20, 20, 20))
-    for k in range((img.height - 30) // cell):
-        draw.text((6, 30 + k * cell + 6), f"PC{k + 1} ({100 * p.explained[k]:.1f}%)", fill=(20, 20, 20))
+    draw.text((6, 6), f"{name}: {part} PCA, PC1..3 capture {100 * cum[min(2, len(cum) - 1)]:.1f}% of the variance; "
+                      f"each row varies one PC from {sds[0]:+d} to {sds[-1]:+d} SD of its observed scores, others 0",
+              fill=(20, 20, 20))
     for c, s in enumerate(sds):
-        draw.text((c * cell + cell // 2 - 10, img.height - 16), f"{s:+d} SD", fill=(90, 90, 90))
+        draw.text((c * cell + cell // 2 - 14, 28), f"{s:+d} SD" if s else "mean", fill=(60, 60, 60))
+    for k in range((img.height - 46) // cell):
+        y = 46 + k * cell + 4
+        label = f"PC{k + 1} ({100 * p.explained[k]:.1f}%)"
+        draw.rectangle([3, y - 1, 8 + 7 * len(label), y + 14], fill=(255, 255, 255))
+        draw.text((6, y), label, fill=(20, 20, 20))
     return img
-
