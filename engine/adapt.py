@@ -24,7 +24,7 @@ from numba import njit
 
 from . import quat
 from .ccd import (KIND_MULTI, KIND_NONE, ChainArrays, _q_at, _q_put, _v_at, _v_put, ccd_frame,
-                  chain_arrays, chain_fk, clamp_angle, from_euler_zyx, hinge_axis, limit_euler,
+                  chain_arrays, chain_fk, cross, clamp_angle, from_euler_zyx, hinge_axis, limit_euler,
                   pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub, wrap)
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations
@@ -46,6 +46,7 @@ _drop_stale_numba_cache("adapt", ("ccd.py", "dls.py"))
 _drop_stale_numba_cache("dls", ("ccd.py",))
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
+GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
 SOLVERS = ("ccd", "dls")
 
 
@@ -125,6 +126,158 @@ def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, k
 
 
 @njit(cache=True)
+def _grip_residual(eff, last, target_pos, target_rot, length, r):
+    """6-vector residual (position cm, rotation vector * length) into r; returns its norm."""
+    qe = qmul(target_rot, qconj(last))
+    if qe[0] < 0.0:
+        qe = (-qe[0], -qe[1], -qe[2], -qe[3])
+    sv = math.sqrt(qe[1] * qe[1] + qe[2] * qe[2] + qe[3] * qe[3])
+    scale = 0.0 if sv < 1e-15 else 2.0 * math.atan2(sv, qe[0]) / sv * length
+    r[0] = target_pos[0] - eff[0]
+    r[1] = target_pos[1] - eff[1]
+    r[2] = target_pos[2] - eff[2]
+    r[3] = qe[1] * scale
+    r[4] = qe[2] * scale
+    r[5] = qe[3] * scale
+    t = 0.0
+    for i in range(6):
+        t += r[i] * r[i]
+    return math.sqrt(t)
+
+
+@njit(cache=True)
+def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, damping, max_step,
+              cols, dofs, A, x):
+    """One damped least-squares step on position AND orientation of the last
+    chain joint (6 rows: 3 position, 3 rotation scaled by ``length`` cm/rad).
+    Limits by clamping and freezing, as :func:`engine.ccd.jacobian_step`."""
+    n = local.shape[0]
+    m = 0
+    for k in range(n):
+        for c in range(3):
+            if free[k, c]:
+                a = hinge_axis(prot, g_rot, euler, k, c)
+                col = cross(a, vsub(eff, _v_at(g_pos, k)))
+                cols[m, 0] = col[0]
+                cols[m, 1] = col[1]
+                cols[m, 2] = col[2]
+                cols[m, 3] = a[0] * length
+                cols[m, 4] = a[1] * length
+                cols[m, 5] = a[2] * length
+                dofs[m, 0] = k
+                dofs[m, 1] = c
+                m += 1
+    for _round in range(3):
+        for i in range(6):
+            for j in range(6):
+                A[i, j] = damping * damping if i == j else 0.0
+        for q in range(m):
+            if dofs[q, 0] < 0:
+                continue
+            for i in range(6):
+                for j in range(6):
+                    A[i, j] += cols[q, i] * cols[q, j]
+        # Cholesky solve A x = r (A is symmetric positive definite)
+        for i in range(6):
+            for j in range(i + 1):
+                t = A[i, j]
+                for k2 in range(j):
+                    t -= A[i, k2] * A[j, k2]
+                if i == j:
+                    A[i, i] = math.sqrt(max(t, 1e-300))
+                else:
+                    A[i, j] = t / A[j, j]
+        for i in range(6):
+            t = r[i]
+            for k2 in range(i):
+                t -= A[i, k2] * x[k2]
+            x[i] = t / A[i, i]
+        for i in range(5, -1, -1):
+            t = x[i]
+            for k2 in range(i + 1, 6):
+                t -= A[k2, i] * x[k2]
+            x[i] = t / A[i, i]
+        biggest = 0.0
+        for q in range(m):
+            if dofs[q, 0] >= 0:
+                d = 0.0
+                for i in range(6):
+                    d += cols[q, i] * x[i]
+                biggest = max(biggest, abs(d))
+        scale = 1.0 if biggest <= max_step else max_step / biggest
+        clamped = False
+        for q in range(m):
+            if dofs[q, 0] < 0:
+                continue
+            k = dofs[q, 0]
+            c = dofs[q, 1]
+            d = 0.0
+            for i in range(6):
+                d += cols[q, i] * x[i]
+            want = euler[k, c] + d * scale
+            got = clamp_angle(want, lo[k, c], hi[k, c])
+            if got != want:
+                gd = got - euler[k, c]
+                euler[k, c] = got
+                for i in range(6):
+                    r[i] -= cols[q, i] * gd
+                dofs[q, 0] = -1
+                clamped = True
+        if not clamped:
+            for q in range(m):
+                if dofs[q, 0] < 0:
+                    continue
+                d = 0.0
+                for i in range(6):
+                    d += cols[q, i] * x[i]
+                euler[dofs[q, 0], dofs[q, 1]] += d * scale
+            break
+    for k in range(n):
+        if free[k, 0] or free[k, 1] or free[k, 2]:
+            _q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+
+
+@njit(cache=True)
+def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_pos, target_rot,
+               tol, ori_tol, max_iter, g_rot, g_pos, cols6, dofs, A, x, r, bak_l, bak_e):
+    """Damped Newton on position and orientation of the chain's last joint
+    from the current pose (after the position solve and the twist/hand finish
+    could not get the orientation). Returns (position error, angle error)."""
+    n = offsets.shape[0]
+    length = GRIP_LENGTH
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    res = _grip_residual(eff, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+    lam = 0.5
+    for _ in range(max_iter):
+        pe = vnorm(vsub(eff, target_pos))
+        oe = q_angle(_q_at(g_rot, n - 1), target_rot)
+        if pe < tol and oe < ori_tol:
+            break
+        bak_l[:n] = local
+        bak_e[:n] = euler
+        pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, lam, 0.25,
+                  cols6, dofs, A, x)
+        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        res2 = _grip_residual(eff2, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+        if not res2 < res:
+            local[:] = bak_l[:n]
+            euler[:] = bak_e[:n]
+            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+            res = _grip_residual(eff, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+            lam *= 4.0
+            if lam > 1e4:
+                break
+            continue
+        gain = res - res2
+        eff = eff2
+        res = res2
+        lam = max(0.05, lam * 0.5)
+        if gain < 1e-7:
+            break
+    return vnorm(vsub(eff, target_pos)), q_angle(_q_at(g_rot, n - 1), target_rot)
+
+
+@njit(cache=True)
 def dot3(u, v):
     return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 
@@ -148,6 +301,17 @@ def _fk_subtree(i, f, parents, trans, subtree, out_local, out_grot, out_gpos):
         out_gpos[i, j, 0] = pos[0]
         out_gpos[i, j, 1] = pos[1]
         out_gpos[i, j, 2] = pos[2]
+
+
+@njit(cache=True)
+def _effective_limits(lo, hi, src, out_lo, out_hi):
+    """The rig's limits widened to take in the source angle: a source frame
+    outside its limits may stay where it is or move back in, never further out
+    (and never jump to the far limit)."""
+    for k in range(lo.shape[0]):
+        for c in range(3):
+            out_lo[k, c] = min(lo[k, c], src[k, c])
+            out_hi[k, c] = max(hi[k, c], src[k, c])
 
 
 @njit(cache=True)
@@ -180,6 +344,14 @@ def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_
     loc_l = np.empty((nl, 4))
     eul_l = np.empty((nl, 3))
     src_l = np.empty((nl, 3))
+    cols6 = np.empty((3 * nmax, 6))
+    A6 = np.empty((6, 6))
+    x6 = np.empty(6)
+    r6 = np.empty(6)
+    lo_l = np.empty((nl, 3))
+    hi_l = np.empty((nl, 3))
+    lo_r = np.empty((nr, 3))
+    hi_r = np.empty((nr, 3))
     loc_r = np.empty((nr, 4))
     eul_r = np.empty((nr, 3))
     src_r = np.empty((nr, 3))
@@ -207,11 +379,12 @@ def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_
             for c in range(3):
                 src_l[k, c] = src_euler[f, lj[k], c]
                 eul_l[k, c] = src_l[k, c]
+        _effective_limits(l_lo, l_hi, src_l, lo_l, hi_l)
         pj = parents[lj[0]]
         prot = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
         ppos = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
         err, its = _solve_chain(solver, prot, ppos, l_off, l_eoff, loc_l, eul_l, src_l, l_free, l_kind,
-                                l_lo, l_hi, l_w, handle, tol, max_iter, damping, g_rot, g_pos,
+                                lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot, g_pos,
                                 cols, dofs, bak_l, bak_e)
         if its > 0:
             for k in range(nl):
@@ -232,6 +405,7 @@ def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_
                 for c in range(3):
                     src_r[k, c] = src_euler[f, rj[k], c]
                     eul_r[k, c] = src_r[k, c]
+            _effective_limits(r_lo, r_hi, src_r, lo_r, hi_r)
             pj = parents[rj[0]]
             prot = (out_grot[i, pj, 0], out_grot[i, pj, 1], out_grot[i, pj, 2], out_grot[i, pj, 3])
             ppos = (out_gpos[i, pj, 0], out_gpos[i, pj, 1], out_gpos[i, pj, 2])
@@ -240,15 +414,18 @@ def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_
                      or q_angle((g_rot[nr - 1, 0], g_rot[nr - 1, 1], g_rot[nr - 1, 2], g_rot[nr - 1, 3]),
                                 t_rot) >= ori_tol)
             if moved:
-                for _outer in range(3):
-                    _solve_chain(solver, prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
-                                 r_lo, r_hi, r_w, t_pos, tol, max_iter, damping, g_rot, g_pos,
-                                 cols, dofs, bak_l, bak_e)
-                    orient_finish(prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
-                                  r_lo, r_hi, t_rot, g_rot, g_pos, 8, ori_tol)
-                    eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
-                    if vnorm(vsub(eff, t_pos)) < tol:
-                        break
+                # wrist position first (as the dissertation), then the joints
+                # that turn the hand without moving the wrist; if limits keep the
+                # hand off its grip, both together by damped Newton
+                _solve_chain(solver, prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
+                             lo_r, hi_r, r_w, t_pos, tol, max_iter, damping, g_rot, g_pos,
+                             cols, dofs, bak_l, bak_e)
+                oe = orient_finish(prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
+                                   lo_r, hi_r, t_rot, g_rot, g_pos, 8, ori_tol)
+                eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
+                if vnorm(vsub(eff, t_pos)) >= tol or oe >= ori_tol:
+                    grip_solve(prot, ppos, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
+                               tol, ori_tol, 50, g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
                 for k in range(nr):
                     for c in range(4):
                         out_local[i, rj[k], c] = loc_r[k, c]
