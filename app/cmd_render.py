@@ -1,0 +1,152 @@
+"""``hitpoint render-strip``: a contact sheet of one shot of the library.
+
+Frames side by side (evenly spread, always including the hit frame), the
+skinned batsman on top and the source skeleton as a stick figure below, seen
+from the off side with one fixed camera per shot so the motion reads across
+the sheet.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from app.errors import UserError, cli_errors
+
+LABEL_H = 26
+TITLE_H = 34
+SKELETON_RGBA = (1.0, 0.85, 0.15, 1.0)
+BAT_RGBA = (0.85, 0.62, 0.30, 1.0)
+HIT_OUTLINE = (220, 40, 40)
+
+
+def strip_frames(num_frames: int, hit_frame: int, count: int) -> list[int]:
+    """``count`` frames spread evenly over ``0..num_frames-1``; the nearest one is moved to the hit frame."""
+    count = max(1, min(count, num_frames))
+    frames = np.unique(np.round(np.linspace(0, num_frames - 1, count)).astype(int))
+    frames[np.argmin(np.abs(frames - hit_frame))] = hit_frame
+    return sorted(set(int(f) for f in frames))
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """Cell size ``"WxH"`` (or one number for square cells) in pixels."""
+    try:
+        parts = [int(p) for p in text.lower().replace(",", "x").split("x")]
+    except ValueError:
+        raise UserError(f"--size {text!r}: expected WIDTHxHEIGHT in pixels, e.g. 240x320") from None
+    if len(parts) == 1:
+        parts = parts * 2
+    if len(parts) != 2 or not all(16 <= p <= 4096 for p in parts):
+        raise UserError(f"--size {text!r}: expected WIDTHxHEIGHT, each 16..4096 pixels")
+    return parts[0], parts[1]
+
+
+def bat_segment(rig, global_rotations: np.ndarray, global_positions: np.ndarray) -> np.ndarray:
+    """Handle top and toe of the bat ``(..., 2, 3)`` from the LeftHand transform (``rig.bat``)."""
+    from engine import quat
+    b = rig.bat
+    hand = rig.skeleton.index("LeftHand")
+    grip = np.asarray(b["left_grip"], float)
+    axis = np.asarray(b["axis"], float)
+    local = np.stack([grip - axis * b["grip_to_top"], grip + axis * (b["length"] - b["grip_to_top"])])
+    r = global_rotations[..., hand, None, :]
+    return global_positions[..., hand, None, :] + quat.rotate(np.broadcast_to(r, r.shape[:-2] + (2, 4)), local)
+
+
+def strip_camera(points: np.ndarray, cell: tuple[int, int], fovy: float = 30.0):
+    """Off-side camera (from -X, a little toward the bowler) framing ``points (N,3)``; (view, proj)."""
+    from app.render import look_at, perspective
+    lo, hi = points.min(0), points.max(0)
+    centre = 0.5 * (lo + hi)
+    direction = np.array([-1.0, 0.18, 0.22])
+    direction /= np.linalg.norm(direction)
+    aspect = cell[0] / cell[1]
+    half = 0.5 * (hi - lo)
+    radius_v = max(half[1], 40.0) * 1.12
+    radius_h = max(np.hypot(half[0] * 0.25, half[2]), 40.0) * 1.12
+    t = np.tan(np.radians(fovy) / 2)
+    dist = max(radius_v / t, radius_h / (t * aspect)) + max(half[0], 30.0)
+    eye = centre + direction * dist
+    return look_at(eye, centre), perspective(fovy, aspect, 10.0, 20000.0)
+
+
+def render_strip(shot, rig, count: int, cell: tuple[int, int]):
+    """The contact sheet as a PIL image."""
+    from PIL import Image, ImageDraw
+    from app.render import SceneRenderer, SceneView, offscreen_context, render_image
+    from engine.skeleton import bind_positions, skinning_matrices
+
+    frames = strip_frames(shot.num_frames, shot.hit_frame, count)
+    g_rot, g_pos = shot.fk
+    bats = bat_segment(rig, g_rot[frames], g_pos[frames])
+    pts = np.concatenate([g_pos[frames].reshape(-1, 3), bats.reshape(-1, 3), [[g_pos[frames, 0, 0].mean(), 0.0, g_pos[frames, 0, 2].mean()]]])
+    view, proj = strip_camera(pts, cell)
+    skins = skinning_matrices(g_rot[frames], g_pos[frames], bind_positions(rig.skeleton))
+
+    ctx = offscreen_context()
+    renderer = SceneRenderer(ctx, rig)
+    W, H = cell
+    sheet = Image.new("RGB", (W * len(frames), TITLE_H + 2 * H + LABEL_H), (24, 28, 36))
+    draw = ImageDraw.Draw(sheet)
+    draw.text((10, 10), f"{shot.name}  -  {shot.num_frames} frames, hit frame {shot.hit_frame}"
+                        f"  -  top: skinned mesh, bottom: source skeleton", fill=(235, 235, 235))
+    for k, f in enumerate(frames):
+        ball = shot.hit_point if f == shot.hit_frame else None
+        top = SceneView(view, proj, cell, skins[k], ball_position=ball)
+        bottom = SceneView(view, proj, cell, None, skeleton_lines=[(g_pos[f], rig.skeleton.parents, SKELETON_RGBA)],
+                           polylines=[(bats[k], BAT_RGBA, 6.0)], ball_position=ball, skeleton_width_px=3.0)
+        x = k * W
+        sheet.paste(Image.fromarray(render_image(renderer, top)), (x, TITLE_H))
+        sheet.paste(Image.fromarray(render_image(renderer, bottom)), (x, TITLE_H + H))
+        hit = f == shot.hit_frame
+        label = f"frame {f}" + ("  (hit)" if hit else "")
+        draw.text((x + 8, TITLE_H + 2 * H + 7), label, fill=(255, 120, 110) if hit else (220, 220, 220))
+        if hit:
+            draw.rectangle([x + 1, TITLE_H + 1, x + W - 2, TITLE_H + 2 * H - 2], outline=HIT_OUTLINE, width=3)
+        if k:
+            draw.line([(x, TITLE_H), (x, TITLE_H + 2 * H)], fill=(24, 28, 36), width=2)
+    ctx.release()
+    return sheet
+
+
+def save_png_atomic(img, out: Path) -> None:
+    out = Path(out)
+    if not out.parent.exists():
+        raise UserError(f"{out}: directory {out.parent} does not exist")
+    fd, tmp = tempfile.mkstemp(dir=out.parent, suffix=".png.tmp")
+    os.close(fd)
+    try:
+        img.save(tmp, format="PNG")
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, out)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def register(cli: typer.Typer) -> None:
+    @cli.command("render-strip")
+    @cli_errors
+    def render_strip_cmd(
+        shot: str = typer.Option(..., "--shot", help="Shot name from the library (see `hitpoint shots`)."),
+        out: Path = typer.Option(..., "--out", help="PNG file to write."),
+        frames: int = typer.Option(9, "--frames", help="Number of frames on the sheet (the hit frame is always one)."),
+        size: str = typer.Option("240x320", "--size", help="Size of one cell, WIDTHxHEIGHT pixels."),
+    ):
+        """Contact sheet of a shot: skinned mesh (top) and source skeleton (bottom), frames side by side."""
+        from engine.library import find_shot, load_library
+        from engine.rig import default_rig
+
+        if not 1 <= frames <= 64:
+            raise UserError(f"--frames {frames}: expected 1..64")
+        if out.suffix.lower() != ".png":
+            raise UserError(f"--out {out}: expected a .png file")
+        cell = parse_size(size)
+        rig = default_rig()
+        s = find_shot(load_library(rig=rig), shot)
+        img = render_strip(s, rig, frames, cell)
+        save_png_atomic(img, out)
+        print(f"wrote {out} ({img.width}x{img.height}, frames {', '.join(map(str, strip_frames(s.num_frames, s.hit_frame, frames)))})")
