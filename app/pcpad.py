@@ -83,7 +83,7 @@ def sync(state) -> PadState | None:
         pad.sections = synth.shot_sections(shot.fk[1][:, rig.bat_joint], shot.hit_frame)
         pad.guide = synth.source_path(pad.pca)
         lo, hi = pad.guide.min(axis=0), pad.guide.max(axis=0)
-        centre, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-3) * 1.8
+        centre, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-3) * 1.4
         pad.lo, pad.hi = centre - half, centre + half
         pad.shot_key = key
         pad.marker, pad.live, pad.playing, pad.pose = None, False, False, None
@@ -418,6 +418,7 @@ def _variance_plot(pad: PadState) -> None:
     if implot.begin_plot("##pc_variance", imgui.ImVec2(-1, 130)):
         implot.setup_axes("PC", "% variance", implot.AxisFlags_.auto_fit, implot.AxisFlags_.lock)
         implot.setup_axis_limits(implot.ImAxis_.y1, 0, 100, implot.Cond_.always)
+        implot.setup_legend(implot.Location_.east)
         implot.plot_bars("per PC", xs, ex, 0.6)
         spec = implot.Spec()
         spec.line_color, spec.line_weight = imgui.ImVec4(0.95, 0.25, 0.2, 1.0), 2.0
