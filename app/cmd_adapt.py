@@ -1,0 +1,153 @@
+"""``hitpoint adapt``: adapt a library shot to a new hit point, print a JSON summary."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from app.errors import UserError, cli_errors
+
+
+def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
+              out: Optional[Path] = None) -> dict:
+    """The adapt command's work, returned as the JSON-able summary."""
+    import time
+
+    import numpy as np
+
+    from engine import choice
+    from engine.adapt import Adapter, AdaptSettings, check_settings
+    from engine.library import find_shot, load_library
+    from engine.rig import default_rig
+
+    if out is not None and out.suffix.lower() not in (".bvh", ".csv"):
+        raise UserError(f"--out: unknown extension {out.suffix or '(none)'!r} (use .bvh or .csv)")
+    settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver)
+    check_settings(settings)
+    rig = default_rig()
+    shots = load_library(rig=rig)
+    if target is not None:
+        if shot_name is not None or hit is not None:
+            raise UserError("give either --target, or --shot with --hit, not both")
+        idx, desired = choice.choose_shot([s.hit_point for s in shots], choice.BALL_START, target)
+        shot = shots[idx]
+    else:
+        if shot_name is None or hit is None:
+            raise UserError("give --target X Y Z, or --shot NAME with --hit X Y Z")
+        shot = find_shot(shots, shot_name)
+        desired = np.asarray(hit, float)
+    adapter = Adapter(rig, shot)
+    adapter.adapt(desired, settings)            # compile / load the kernels before timing
+    t0 = time.perf_counter()
+    a = adapter.adapt(desired, settings)
+    solve_ms = (time.perf_counter() - t0) * 1e3
+    if out is not None:
+        _write(out, rig, shot, a)
+    r = lambda v: [round(float(x), 4) for x in v]  # noqa: E731
+    return {
+        "shot": shot.name,
+        "hit_frame": shot.hit_frame,
+        "frames": shot.num_frames,
+        "source_hit_point": r(shot.hit_point),
+        "desired_hit_point": r(a.desired_hit_point),
+        "target": None if target is None else r(target),
+        "bat_error_cm": round(a.bat_error_cm, 6),
+        "blend": r(a.blend),
+        "grip_error_cm": r(a.grip_error_cm),
+        "grip_error_deg": r(a.grip_error_deg),
+        "max_grip_error_cm": round(float(a.grip_error_cm.max()), 4),
+        "max_grip_error_deg": round(float(a.grip_error_deg.max()), 4),
+        "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
+        "solve_ms": round(solve_ms, 3),
+        "out": None if out is None else str(out),
+    }
+
+
+def _write(out: Path, rig, shot, a) -> None:
+    from engine import bvh
+    from engine.skeleton import Clip
+    if out.suffix.lower() == ".bvh":
+        bvh.write(out, shot.skeleton, Clip(a.root_positions, a.local_rotations, shot.clip.fps))
+        return
+    import numpy as np
+    from engine.ccd import limit_euler
+    e = limit_euler(a.local_rotations, rig.limits)
+    names = shot.skeleton.names
+    head = ["frame", "blend", "root_x", "root_y", "root_z"] + [
+        f"{n}_{ax}" for n in names for ax in ("z", "y", "x")]
+    rows = [",".join(head)]
+    for f in range(len(a.blend)):
+        vals = [str(f), f"{a.blend[f]:.6f}"] + [f"{v:.6f}" for v in a.root_positions[f]] + [
+            f"{v:.6f}" for v in e[f].reshape(-1)]
+        rows.append(",".join(vals))
+    bvh.atomic_write_text(out, "\n".join(rows) + "\n")
+
+
+_FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
+          "--solver": 1, "--out": 1}
+
+
+def parse_args(args: list[str]) -> dict:
+    """The adapt options from raw arguments; every mistake is one UserError line
+    (click's own usage errors would print several)."""
+    got: dict = {}
+    i = 0
+    while i < len(args):
+        flag, _, inline = args[i].partition("=")
+        if flag not in _FLAGS:
+            raise UserError(f"unknown option {args[i]!r} (see hitpoint adapt --help)")
+        n = _FLAGS[flag]
+        vals = [inline] if inline else args[i + 1:i + 1 + n]
+        if len(vals) < n or any(v.startswith("--") for v in vals):
+            raise UserError(f"{flag} needs {n} value{'s' if n > 1 else ''}")
+        got[flag] = vals
+        i += 1 + (0 if inline else n)
+
+    def num(flag, v, kind=float):
+        try:
+            x = kind(v)
+        except ValueError:
+            raise UserError(f"{flag}: {v!r} is not a number") from None
+        if not math.isfinite(x):
+            raise UserError(f"{flag} must be finite numbers, got {v}")
+        return x
+
+    out = {"target": None, "shot_name": None, "hit": None, "falloff": 90.0, "wrist_dof": 0,
+           "solver": "ccd", "out": None}
+    if "--target" in got:
+        out["target"] = [num("--target", v) for v in got["--target"]]
+    if "--hit" in got:
+        out["hit"] = [num("--hit", v) for v in got["--hit"]]
+    if "--shot" in got:
+        out["shot_name"] = got["--shot"][0]
+    if "--falloff" in got:
+        out["falloff"] = num("--falloff", got["--falloff"][0])
+    if "--wrist-dof" in got:
+        out["wrist_dof"] = int(num("--wrist-dof", got["--wrist-dof"][0]))
+    if "--solver" in got:
+        out["solver"] = got["--solver"][0]
+    if "--out" in got:
+        out["out"] = Path(got["--out"][0])
+    return out
+
+
+def register(cli: typer.Typer) -> None:
+    @cli.command("adapt", context_settings={"ignore_unknown_options": True, "allow_extra_args": True})
+    @cli_errors
+    def adapt(ctx: typer.Context):
+        """Adapt a shot so the bat meets the ball at a new point; print a JSON summary.
+
+        Options:
+          --target X Y Z      ball target (cm); the shot is chosen by the ball's line
+          --shot NAME --hit X Y Z   pin a shot and give the desired hit point (cm)
+          --falloff CM        importance-blend falloff distance (default 90)
+          --wrist-dof 0|2     left wrist locked (0, default) or 2 DOF
+          --solver ccd|dls    IK solver (default ccd)
+          --out FILE          write the adapted shot, .bvh or .csv (atomic)
+        JSON keys: shot, hit_frame, source_hit_point, desired_hit_point,
+        bat_error_cm, blend (per frame), grip_error_cm, grip_error_deg, solve_ms, ...
+        """
+        print(json.dumps(run_adapt(**parse_args(list(ctx.args)))))
