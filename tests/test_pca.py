@@ -165,3 +165,30 @@ def test_real_mocap_golf_swing():
     assert np.max(np.abs(r - root)) < 1e-6
     assert _same_rotation(q, rot, 1e-6)
     assert pcam.style_error(p, root, rot) < 1e-9
+
+
+def _bundled_shots(rig):
+    from engine.library import load_library
+    from engine.rig import assets_dir
+    if not (assets_dir() / "shots" / "library.json").exists():
+        pytest.skip("shot library not bundled yet")
+    return load_library(rig=rig)
+
+
+def test_bundled_shots_reconstruct_and_adapt_in_place(rig):
+    """Every bundled shot: all PCs give it back; adapting it to its own FK hit
+    point changes nothing, so its style error is 0 at either wrist setting."""
+    for shot in _bundled_shots(rig):
+        p = pcam.fit_clip(rig, shot.clip, "upper")
+        body = pcam.fit_clip(rig, shot.clip, "body")
+        root, rot = body.pose_from_scores(body.scores)
+        assert np.max(np.abs(root - shot.clip.root_positions)) < 1e-6
+        assert _same_rotation(rot[:, :rig.animated_joints], shot.clip.local_rotations[:, :rig.animated_joints], 1e-6)
+        try:
+            from engine.adapt import AdaptSettings, Adapter
+        except ImportError:
+            continue
+        adapter = Adapter(rig, shot)
+        for dof in (0, 2):
+            a = adapter.adapt(shot.hit_point, AdaptSettings(wrist_dof=dof))
+            assert pcam.style_error(p, a.root_positions, a.local_rotations) < 1e-3, shot.name
