@@ -101,13 +101,25 @@ def frames_along(centres: np.ndarray, up) -> tuple[np.ndarray, np.ndarray]:
     return u, v
 
 
-def tube(centres, ru, rv, up, n=24, power=2.0, dome_start=0.0, dome_end=0.0):
+def resample(centres, ru, rv, step):
+    """Sections every ``step`` cm along the path (linear in arc length), so joints bend over many rings."""
+    seg = np.linalg.norm(np.diff(centres, axis=0), axis=1)
+    s = np.concatenate([[0], np.cumsum(seg)])
+    t = np.linspace(0, s[-1], max(int(np.ceil(s[-1] / step)), 1) + 1)
+    c = np.stack([np.interp(t, s, centres[:, k]) for k in range(3)], 1)
+    return c, np.interp(t, s, ru), np.interp(t, s, rv)
+
+
+def tube(centres, ru, rv, up, n=24, power=2.0, dome_start=0.0, dome_end=0.0, step=None):
     """Superelliptic tube along ``centres (K,3)`` with radii ``ru`` (along ``up``) and ``rv``.
 
-    ``dome_*`` > 0 closes that end with a half-ellipsoid of that depth (cm).
+    ``dome_*`` > 0 closes that end with a half-ellipsoid of that depth (cm); ``step``
+    resamples the sections every ``step`` cm.
     """
     centres = np.asarray(centres, float)
     ru, rv = np.broadcast_to(np.asarray(ru, float), len(centres)), np.broadcast_to(np.asarray(rv, float), len(centres))
+    if step:
+        centres, ru, rv = resample(centres, ru, rv, step)
     u, v = frames_along(centres, up)
     tangent = np.gradient(centres, axis=0)
     tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
@@ -228,7 +240,7 @@ def torso(rig, W) -> list[Part]:
     wx = np.array([12, 15.5, 16.5, 15.5, 14.5])
     dz = np.array([9, 10.5, 11, 10.5, 10])
     v, f = tube(np.stack([np.zeros(5), ys, np.zeros(5)], 1), dz, wx, up=(0, 0, 1), n=28, power=2.3,
-                dome_start=4, dome_end=2)
+                dome_start=4, dome_end=2, step=2.5)
     p = finish(v, f, TROUSERS, 0.15)
     w = W.keys(p.vertices[:, 1], SPINE_KEYS)
     for L, s in (("Left", 1), ("Right", -1)):
@@ -242,7 +254,7 @@ def torso(rig, W) -> list[Part]:
     wx = np.array([15.7, 15.0, 15.5, 17.0, 18.0, 17.5, 14.0, 8.0])
     dz = np.array([10.8, 10.4, 10.6, 11.2, 11.0, 9.5, 8.0, 6.2])
     zc = np.array([0, 0, 0.2, 0.6, 0.6, 0.2, 0, 0.5])
-    v, f = tube(np.stack([np.zeros(8), ys, zc], 1), dz, wx, up=(0, 0, 1), n=32, power=2.4, dome_end=1.5)
+    v, f = tube(np.stack([np.zeros(8), ys, zc], 1), dz, wx, up=(0, 0, 1), n=32, power=2.4, dome_end=1.5, step=2.5)
     p = finish(v, f, SHIRT, 0.12)
     w = W.keys(p.vertices[:, 1], SPINE_KEYS)
     for L, s in (("Left", 1), ("Right", -1)):
@@ -253,7 +265,7 @@ def torso(rig, W) -> list[Part]:
     parts.append(p)
     # neck and face
     v, f = tube([[0, 143, -0.5], [0, 150, 0], [0, 157, 1], [0, 162, 1.5]], [5.6, 5.4, 5.2, 5.2],
-                [5.8, 5.6, 5.4, 5.4], up=(0, 0, 1), n=16)
+                [5.8, 5.6, 5.4, 5.4], up=(0, 0, 1), n=16, step=2.0)
     p = finish(v, f, SKIN, 0.2)
     p.weights = W.keys(p.vertices[:, 1], SPINE_KEYS)
     parts.append(p)
@@ -321,7 +333,7 @@ def arm(W, L, s) -> list[Part]:
     rz = np.array([6.0, 6.2, 5.8, 5.2, 4.7, 4.3, 4.2, 3.8, 3.3, 3.2])
     cy = 143.0 - np.array([0, 0, 0.3, 0.4, 0.4, 0.3, 0.4, 0.3, 0.2, 0])
     v, f = tube(np.stack([s * xs, cy, np.zeros_like(xs)], 1), ry, rz, up=(0, 1, 0), n=20,
-                dome_start=3, dome_end=2)
+                dome_start=3, dome_end=2, step=1.8)
     p = finish(v, f, SHIRT, 0.12)
     p.weights = W.keys(s * p.vertices[:, 0], arm_keys(L))
     parts.append(p)
@@ -366,7 +378,7 @@ def leg(W, L, s) -> list[Part]:
     rz = np.array([9.5, 9.5, 8.3, 7.0, 6.2, 6.0, 6.1, 6.4, 5.0, 4.3, 4.3])
     zc = np.array([-0.5, 0, 0.4, 0.4, 0.4, 0.4, 0, -0.6, -0.2, 0, 0])
     xc = s * np.array([8.0, 9.5, 9.3, 9.1, 9.0, 9.0, 9.0, 9.0, 9.0, 9.0, 9.0])
-    v, f = tube(np.stack([xc, ys, zc], 1), rz, rx, up=(0, 0, 1), n=20, dome_start=2, dome_end=2)
+    v, f = tube(np.stack([xc, ys, zc], 1), rz, rx, up=(0, 0, 1), n=20, dome_start=2, dome_end=2, step=2.5)
     p = finish(v, f, TROUSERS, 0.15)
     p.weights = W.keys(-p.vertices[:, 1], leg_keys(L))
     parts.append(p)
@@ -487,8 +499,8 @@ def bat(rig: Rig, W, bind) -> list[Part]:
         prof = (1 - (x / max(halfw, 1e-6)) ** 2) ** 0.8
         y = np.concatenate([np.full(M // 2, face_y), edge_back + (centre_back - edge_back) * prof[M // 2:]])
         y[M // 2:] = np.minimum(y[M // 2:], face_y - 0.4)
-        # centre the handle axis on the blade middle thickness
-        rings.append(to_world(np.full(M, ai), x, y - face_y + T / 2 - T / 2))
+        # the handle axis runs through the middle of the blade's thickness (face at +T/2)
+        rings.append(to_world(np.full(M, ai), x, y))
     v, f = loft(np.array(rings), cap_start=True, cap_end=True)
     p = finish(v, f, WILLOW, 0.55, smooth_angle=40)
     parts.append(p)

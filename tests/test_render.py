@@ -1,0 +1,187 @@
+"""Offscreen rendering (EGL, Mesa llvmpipe): the batsman, pitch, ball and overlays
+land where the camera projects them, and poses move pixels."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from engine import quat
+from engine.skeleton import bind_positions, forward_kinematics, skinning_matrices
+
+SIZE = (320, 240)
+EYE, TARGET = np.array([-430.0, 150.0, 160.0]), np.array([0.0, 95.0, 90.0])
+ROOT = np.array([0.0, 97.0, 90.0])     # in front of the stumps, near the popping crease
+
+
+@pytest.fixture(scope="module")
+def renderer(rig):
+    from app.render import SceneRenderer, offscreen_context
+    ctx = offscreen_context()
+    r = SceneRenderer(ctx, rig)
+    yield r
+    ctx.release()
+
+
+def pose(rig, rotations=None, root=ROOT):
+    sk = rig.skeleton
+    local = quat.identity((sk.num_joints,))
+    for name, (axis, deg) in (rotations or {}).items():
+        local[sk.index(name)] = quat.from_axis_angle(np.asarray(axis, float), np.radians(deg))
+    t = sk.offsets.copy()
+    t[0] = root
+    g_r, g_p = forward_kinematics(sk.parents, t, local)
+    return g_p, skinning_matrices(g_r, g_p, bind_positions(sk))
+
+
+ARMS_DOWN = {"LeftArm": ((0, 0, 1), -70), "RightArm": ((0, 0, 1), 70), "Hips": ((0, 1, 0), -90)}
+
+
+def view_of(skin, **kw):
+    from app.render import SceneView, look_at, perspective
+    return SceneView(look_at(EYE, TARGET), perspective(40.0, SIZE[0] / SIZE[1], 5.0, 12000.0), SIZE, skin, **kw)
+
+
+def project(v, p):
+    """Pixel (column, row from the top) of world point ``p``."""
+    c = v.proj @ v.view @ np.append(p, 1.0)
+    ndc = c[:3] / c[3]
+    return (ndc[0] * 0.5 + 0.5) * v.size[0], (0.5 - ndc[1] * 0.5) * v.size[1]
+
+
+def render(renderer, v):
+    from app.render import render_image
+    return render_image(renderer, v).astype(int)
+
+
+def changed(a, b, tol=12):
+    return np.abs(a - b).sum(-1) > tol
+
+
+def test_image_shape_and_sky_gradient(renderer, rig):
+    img = render(renderer, view_of(None))
+    assert img.shape == (SIZE[1], SIZE[0], 3)
+    top, horizon = img[2].mean(0), img[SIZE[1] // 3].mean(0)
+    assert top[2] > top[0] and horizon.sum() > top.sum()   # blue zenith, paler toward the horizon
+
+
+def test_batsman_drawn_where_the_skeleton_projects(renderer, rig):
+    g_p, M = pose(rig, ARMS_DOWN)
+    with_body = render(renderer, view_of(M, shadows=False))
+    empty = render(renderer, view_of(None, shadows=False))
+    mask = changed(with_body, empty)
+    v = view_of(M)
+    px = np.array([project(v, p) for p in g_p])
+    lo, hi = px.min(0) - 25, px.max(0) + 25     # the mesh surrounds the joints
+    rows, cols = np.nonzero(mask)
+    assert mask.sum() > 2000
+    assert cols.min() >= lo[0] and cols.max() <= hi[0] and rows.min() >= lo[1] - 15 and rows.max() <= hi[1]
+    # and it is mostly white kit
+    assert with_body[mask].mean() > 150
+
+
+def test_pitch_visible_and_green_outfield(renderer, rig):
+    v = view_of(None)
+    img = render(renderer, v)
+    no_pitch = render(renderer, dataclasses.replace(v, show_pitch=False))
+    c, r = map(int, project(v, np.array([60.0, 0.0, 230.0])))      # on the strip
+    strip = img[r, c]
+    assert strip[0] > strip[2] + 30 and abs(strip[0] - strip[1]) < 50  # sandy
+    assert changed(img, no_pitch)[r, c]
+    c, r = map(int, project(v, np.array([400.0, 0.0, -250.0])))     # outfield beside the strip
+    grass = img[r, c]
+    assert grass[1] > grass[0] and grass[1] > grass[2]
+
+
+def test_crease_lines_are_white(renderer, rig):
+    v = view_of(None)
+    img = render(renderer, v)
+    c, r = map(int, project(v, np.array([-60.0, 0.0, 122.0])))   # popping crease
+    patch = img[r - 1:r + 2, c - 1:c + 2].reshape(-1, 3)
+    assert patch.sum(1).max() > 600
+
+
+def test_ball_drawn_where_projected(renderer, rig):
+    ball = np.array([-150.0, 110.0, 220.0])
+    v = view_of(None, shadows=False)
+    a = render(renderer, dataclasses.replace(v, ball_position=ball))
+    b = render(renderer, v)
+    rows, cols = np.nonzero(changed(a, b))
+    assert len(rows) > 10
+    c, r = project(v, ball)
+    assert abs(cols.mean() - c) < 2.0 and abs(rows.mean() - r) < 2.0
+    red = a[int(round(r)), int(round(c))]
+    assert red[0] > 2 * red[1]
+
+
+def test_pose_changes_move_pixels(renderer, rig):
+    _, M0 = pose(rig, ARMS_DOWN)
+    raised = dict(ARMS_DOWN, LeftArm=((0, 0, 1), 40), LeftForeArm=((0, 1, 0), -90))
+    _, M1 = pose(rig, raised)
+    a, b = render(renderer, view_of(M0)), render(renderer, view_of(M1))
+    assert changed(a, b).sum() > 500
+
+
+def test_shadow_darkens_the_ground(renderer, rig):
+    g_p, M = pose(rig, ARMS_DOWN)
+    lit = render(renderer, view_of(M, shadows=False))
+    shadowed = render(renderer, view_of(M, shadows=True))
+    darker = (lit.sum(-1) - shadowed.sum(-1)) > 30
+    assert darker.sum() > 200
+
+
+def test_overlays_target_ghost_and_lines(renderer, rig):
+    g_p, M = pose(rig, ARMS_DOWN)
+    base = view_of(M)
+    plain = render(renderer, base)
+    target = np.array([0.0, 120.0, -60.0])
+    with_target = render(renderer, dataclasses.replace(base, target_position=target))
+    c, r = project(base, target)
+    assert changed(with_target, plain)[int(r), int(c)]
+    line = np.array([[-100.0, 200.0, 400.0], [-100.0, 200.0, -200.0]])
+    with_line = render(renderer, dataclasses.replace(base, polylines=[(line, (1, 1, 0, 1), 4.0)]))
+    c, r = project(base, line.mean(0))
+    assert with_line[int(r), int(c)][2] < 100 and with_line[int(r), int(c)][:2].min() > 180   # yellow
+    _, M1 = pose(rig, dict(ARMS_DOWN, LeftArm=((0, 0, 1), 40)))
+    ghost = render(renderer, dataclasses.replace(base, ghost_skin_matrices=M1, ghost_alpha=0.4))
+    assert changed(ghost, plain).sum() > 100
+    skel = render(renderer, dataclasses.replace(base, skeleton_lines=[(g_p, rig.skeleton.parents, (1, 0, 0, 1))],
+                                                crosses=[(g_p[:3], (0, 1, 1, 1), 10.0)],
+                                                points=[(g_p[:3], (1, 0, 1, 1), 8.0)]))
+    c, r = project(base, g_p[rig.skeleton.index("Spine1")])
+    assert skel[int(r), int(c)][0] > 150 and skel[int(r), int(c)][1] < 120   # red line on top of the body
+
+
+def test_look_at_and_perspective_centre_the_target():
+    from app.render import look_at, perspective
+    V = look_at((100.0, 50.0, 300.0), (0.0, 100.0, 0.0))
+    P = perspective(45.0, 1.5, 1.0, 1000.0)
+    c = P @ V @ np.array([0.0, 100.0, 0.0, 1.0])
+    assert np.allclose(c[:2] / c[3], 0.0, atol=1e-5)
+    assert -1 < c[2] / c[3] < 1
+    assert np.allclose(V[:3, :3] @ V[:3, :3].T, np.eye(3), atol=1e-6)
+
+
+def test_render_strip_cli(tmp_path):
+    from typer.testing import CliRunner
+    from app.cli import cli
+    from engine.library import load_library
+    shots = load_library()
+    runner = CliRunner()
+    bad = runner.invoke(cli, ["render-strip", "--shot", "no_such_shot", "--out", str(tmp_path / "x.png")])
+    assert bad.exit_code == 2 and not (tmp_path / "x.png").exists()
+    if not shots:
+        pytest.skip("empty shot library")
+    out = tmp_path / "strip.png"
+    ok = runner.invoke(cli, ["render-strip", "--shot", shots[0].name, "--out", str(out), "--frames", "3",
+                             "--size", "96x128"])
+    assert ok.exit_code == 0, ok.output
+    from PIL import Image
+    img = Image.open(out)
+    assert img.width == 3 * 96
+
+
+def test_strip_frames_include_the_hit_frame():
+    from app.cmd_render import strip_frames
+    for n, h, k in ((69, 30, 9), (10, 0, 4), (5, 4, 10), (100, 57, 1)):
+        f = strip_frames(n, h, k)
+        assert h in f and f == sorted(set(f)) and 0 <= min(f) and max(f) < n and len(f) <= k
