@@ -236,11 +236,12 @@ SPINE_KEYS = [(90.0, {"Hips": 1}), (97.0, {"Hips": 1}), (107.0, {"Spine": 1}), (
 def torso(rig, W) -> list[Part]:
     parts = []
     # pelvis / trousers
-    ys = np.array([79, 84, 92, 100, 106.0])
-    wx = np.array([12, 15.5, 16.5, 15.5, 14.5])
-    dz = np.array([9, 10.5, 11, 10.5, 10])
+    # the pelvis stops above the crotch so nothing hangs between spread legs
+    ys = np.array([85, 89, 94, 100, 106.0])
+    wx = np.array([12.5, 15.0, 16.2, 15.5, 14.5])
+    dz = np.array([9.5, 10.5, 11, 10.5, 10])
     v, f = tube(np.stack([np.zeros(5), ys, np.zeros(5)], 1), dz, wx, up=(0, 0, 1), n=28, power=2.3,
-                dome_start=4, dome_end=2, step=2.5)
+                dome_start=2.5, dome_end=2, step=2.5)
     p = finish(v, f, TROUSERS, 0.15)
     w = W.keys(p.vertices[:, 1], SPINE_KEYS)
     for L, s in (("Left", 1), ("Right", -1)):
