@@ -65,10 +65,10 @@ def strip_camera(points: np.ndarray, cell: tuple[int, int], fovy: float = 30.0):
     direction /= np.linalg.norm(direction)
     aspect = cell[0] / cell[1]
     half = 0.5 * (hi - lo)
-    radius_v = max(half[1], 40.0) * 1.12
-    radius_h = max(np.hypot(half[0] * 0.25, half[2]), 40.0) * 1.12
+    radius_v = max(half[1], 40.0) * 1.06
+    radius_h = max(np.hypot(half[0] * 0.25, half[2]), 40.0) * 1.06
     t = np.tan(np.radians(fovy) / 2)
-    dist = max(radius_v / t, radius_h / (t * aspect)) + max(half[0], 30.0)
+    dist = max(radius_v / t, radius_h / (t * aspect)) + 0.6 * max(half[0], 30.0)
     eye = centre + direction * dist
     return look_at(eye, centre), perspective(fovy, aspect, 10.0, 20000.0)
 
@@ -134,7 +134,7 @@ def register(cli: typer.Typer) -> None:
         shot: str = typer.Option(..., "--shot", help="Shot name from the library (see `hitpoint shots`)."),
         out: Path = typer.Option(..., "--out", help="PNG file to write."),
         frames: int = typer.Option(9, "--frames", help="Number of frames on the sheet (the hit frame is always one)."),
-        size: str = typer.Option("240x320", "--size", help="Size of one cell, WIDTHxHEIGHT pixels."),
+        size: str = typer.Option("260x340", "--size", help="Size of one cell, WIDTHxHEIGHT pixels."),
     ):
         """Contact sheet of a shot: skinned mesh (top) and source skeleton (bottom), frames side by side."""
         from engine.library import find_shot, load_library
