@@ -62,14 +62,14 @@ def build(name: str, rig=None, noise: bool = True):
     t0, t1 = keys[0][0], keys[-1][0]
     n_pre, n_post = int(round(-t0 * FPS)), int(round(t1 * FPS))
     times = np.arange(-n_pre, n_post + 1) / FPS
-    tr = tracks(keys, times)
+    solver = PoseSolver(rig)
+    tr = tracks(keys, times, solver)
     if noise:
         rng = np.random.default_rng([SEED, sorted(SHOTS).index(name)])
         env = envelope(len(times))[:, None]
         for ch, amp in NOISE.items():
             if ch in tr:
                 tr[ch] = tr[ch] + amp * env * smooth_noise(rng, len(times), tr[ch].shape[1])
-    solver = PoseSolver(rig)
     T = targets(tr)
     # lean the chest where the keyed torso would leave an arm locked or folded
     tr["chest_ypr"] = tr["chest_ypr"] + fit_torso(solver, T, tr["chest_ypr"], envelope(len(times), 4))
@@ -113,7 +113,10 @@ def main(argv=None):
         skel, clip, hit, desc, _ = build(name, rig)
         report(rig, name, clip, hit)
         if not a.check:
-            bvh.write(out / f"{name}.bvh", skel, clip)
+            # engine.bvh.write, but with the Euler branch the rig's DOFs mean
+            # (an elbow flexed past 90 degrees stays a pure y rotation)
+            bvh.atomic_write_text(out / f"{name}.bvh",
+                                  bvh.format_bvh(skel, clip, euler=chk.dof_euler(rig, clip.local_rotations)))
         manifest.append({"name": name, "file": f"{name}.bvh", "hit_frame": hit, "description": desc})
     if not a.check and not a.only:
         bvh.atomic_write_text(out / "library.json", json.dumps(manifest, indent=1) + "\n")

@@ -9,14 +9,34 @@ import numpy as np
 from engine import quat
 
 
-def euler_zyx(local_rotations: np.ndarray) -> np.ndarray:
-    """Euler (z, y, x) degrees ``(F, J, 3)``, as the BVH stores them."""
-    return quat.to_euler(local_rotations, "ZYX")
+def _outside(a, lo, hi):
+    """Degrees by which angles lie outside [lo, hi] on the circle (0 inside)."""
+    d_lo = np.abs((lo - a + 180.0) % 360.0 - 180.0)
+    d_hi = np.abs((a - hi + 180.0) % 360.0 - 180.0)
+    return np.where((a >= lo) & (a <= hi), 0.0, np.minimum(d_lo, d_hi))
+
+
+def dof_euler(rig, local_rotations: np.ndarray) -> np.ndarray:
+    """Euler (z, y, x) degrees ``(F, J, 3)`` in whichever ZYX branch fits the
+    rig's DOFs and limits: ``quat.to_euler`` keeps the middle angle within
+    +/-90, so an elbow flexed 120 degrees (pure y) comes out as (180, -60, 180)
+    while its other branch, (0, -120, 0), is the one the rig means."""
+    e1 = quat.to_euler(np.asarray(local_rotations, float), "ZYX")
+    e2 = (np.stack([e1[..., 0] + 180.0, 180.0 - e1[..., 1], e1[..., 2] + 180.0], -1) + 180.0) % 360.0 - 180.0
+    lim = np.where(rig.dof[..., None], rig.limits, 0.0)
+    s1 = _outside(e1, lim[..., 0], lim[..., 1]).sum(-1)
+    s2 = _outside(e2, lim[..., 0], lim[..., 1]).sum(-1)
+    return np.where((s2 < s1 - 1e-9)[..., None], e2, e1)
+
+
+def euler_zyx(rig, local_rotations: np.ndarray) -> np.ndarray:
+    """Euler (z, y, x) degrees ``(F, J, 3)`` as the bundled BVH files store them."""
+    return dof_euler(rig, local_rotations)
 
 
 def limit_violations(rig, local_rotations: np.ndarray, tol: float = 0.5) -> list[str]:
     """Human-readable list of limit / DOF violations beyond ``tol`` degrees."""
-    e = euler_zyx(local_rotations)
+    e = dof_euler(rig, local_rotations)
     out = []
     J = rig.skeleton.num_joints
     for j in range(1, J):

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .shots_ik import unit
+from .shots_ik import perp, unit
 
 V = lambda *a: np.array(a, float)
 
@@ -68,52 +68,337 @@ REST = {
 }
 
 
-def frame_span(t_start: float, t_end: float) -> tuple[int, int]:
-    """Frames before and after impact for a key span in seconds."""
-    return int(round(-t_start * 30)), int(round(t_end * 30))
+# ------------------------------------------------------------- composing a stroke
+class Feet:
+    """Key lists for one foot, built from events in time order; the toe
+    (ball of the foot) only moves during a step or a short drag."""
+
+    def __init__(self, side: str, t0: float):
+        self.s = side
+        self.toe = STANCE_FEET[side + "_toe"].copy()
+        self.yaw = STANCE_FEET[side + "_yaw"]
+        self.heel = 0.0
+        self.keys = [(t0, self._state())]
+
+    def _state(self, **kw):
+        st = {self.s + "_toe": self.toe.copy(), self.s + "_yaw": self.yaw, self.s + "_heel": self.heel}
+        st.update({self.s + "_" + k: v for k, v in kw.items()})
+        return st
+
+    def step(self, t_lift, t_land, toe, yaw, height=9.0, heel_lift=14.0):
+        """Lift (heel first), swing with the toe ``height`` cm up, land flat."""
+        toe = np.asarray(toe, float)
+        self.keys.append((t_lift - 0.07, self._state()))
+        self.heel = heel_lift
+        self.keys.append((t_lift, self._state()))
+        mid = (self.toe + toe) / 2 + V(0, height, 0)
+        self.keys.append(((t_lift + t_land) / 2, self._state(toe=mid, yaw=(self.yaw + yaw) / 2, heel=heel_lift / 2)))
+        self.toe, self.yaw, self.heel = toe, yaw, 0.0
+        self.keys.append((t_land, self._state()))
+
+    def pivot(self, t0, t1, heel, yaw=None, drag=None):
+        """Raise/lower the heel and turn about the ball of the foot; ``drag``
+        moves the ball forward, just clear of the ground (a back-foot drag)."""
+        self.keys.append((t0, self._state()))
+        yaw = self.yaw if yaw is None else yaw
+        if drag is not None:
+            mid = self.toe + np.asarray(drag, float) / 2 + V(0, 1.5, 0)
+            self.keys.append(((t0 + t1) / 2, self._state(toe=mid, heel=(self.heel + heel) / 2,
+                                                         yaw=(self.yaw + yaw) / 2)))
+            self.toe = self.toe + np.asarray(drag, float)
+        self.heel, self.yaw = heel, yaw
+        self.keys.append((t1, self._state()))
+
+    def home(self, t_lift, t_land, height=7.0):
+        """Step back to the stance spot (flat)."""
+        self.step(t_lift, t_land, STANCE_FEET[self.s + "_toe"], STANCE_FEET[self.s + "_yaw"], height, 8.0)
 
 
-def with_ends(t_start: float, t_end: float, body: list, hold: float = 0.15) -> list:
-    """Stance at the start (held), rest at the end (held), the stroke between."""
+def bat(grip=None, d=None, n=None, hit=None, x=None):
+    """A bat key: axis ``d`` (handle -> toe) and either the face normal ``n``
+    or ``x``, the way the forearms point (elbow -> wrist, the LeftHand X
+    axis), from which the face normal follows; then the left grip point or,
+    with ``hit``, the Bat joint position."""
+    d = bat_d(*d)
+    k = {"bat_d": d}
+    if n is not None:
+        k["bat_n"] = V(*n)
+    elif x is not None:
+        k["bat_n"] = np.cross(-d, unit(perp(V(*x), d)))
+    else:
+        k["bat_auto"] = True      # forearms point from the shoulders to the hands
+    if hit is not None:
+        k["hit"] = V(*hit)
+    else:
+        k["grip"] = V(*grip)
+    return k
+
+
+def body(hips=None, hips_ypr=None, chest=None):
+    k = {}
+    if hips is not None:
+        k["hips_pos"] = V(*hips)
+    if hips_ypr is not None:
+        k["hips_ypr"] = V(*hips_ypr)
+    if chest is not None:
+        k["chest_ypr"] = V(*chest)
+    return k
+
+
+def compose(t_start, t_end, bat_keys, body_keys, look_keys, feet: list, hold=0.15) -> list:
+    """Key list: stance (held) -> the stroke -> rest (held)."""
+    keys = [(t, dict(k)) for t, k in bat_keys] + [(t, dict(k)) for t, k in body_keys]
+    keys += [(t, {"look": V(*p)}) for t, p in look_keys]
+    for f in feet:
+        keys += [(t, k) for t, k in f.keys[1:]]
+    merged = {}
+    for t, k in keys:
+        t = round(t, 4)
+        for c, v in k.items():
+            if c in merged.setdefault(t, {}):
+                raise ValueError(f"channel {c} keyed twice at t={t}")
+            merged[t][c] = v
+    body = sorted(merged.items())
+    if body[0][0] <= t_start + hold or body[-1][0] >= t_end - hold:
+        raise ValueError("stroke keys must lie between the stance and rest holds")
     return ([(t_start, dict(STANCE)), (t_start + hold, dict(STANCE))] + body +
             [(t_end - hold, dict(REST)), (t_end, dict(REST))])
 
 
 # ------------------------------------------------------------- the shots
+STANCE_BAT = {k: STANCE[k] for k in ("toe", "bat_d", "bat_n")}
+
+
+def t_frames(n: int) -> float:
+    return -n / 30.0
+
+
 def forward_defence():
-    """Front-foot block: short stride to the pitch of the ball, bat angled, dead hands."""
+    """Front-foot block: stride 0.72 m to the pitch, bat angled down beside the pad, dead hands."""
+    t0, t1 = t_frames(30), 1.25
     hit = V(0, 33, 200)
-    land = V(12, 1, 212)             # front-foot stride 0.72 m (Stretch FD)
-    body = [
-        (-0.78, {"l_heel": 0.0}),
-        (-0.70, {"hips_pos": V(32, 88, 113)}),        # weight rocks back before the stride
-        (-0.64, {"l_toe": STANCE_FEET["l_toe"], "l_heel": 14.0}),   # stride starts 0.64 s before
-        (-0.58, {"grip": V(16, 90, 112), "bat_d": bat_d(-0.15, -0.8, -0.6), "bat_n": V(-1, 0.3, 0.2)}),
-        (-0.40, {"l_toe": V(14, 9, 178), "l_heel": 6.0, "l_yaw": -65.0}),
-        # top of a modest backlift: downswing starts 0.38 s before impact, toe ~0.65 m up
-        (-0.38, {"grip": V(17, 100, 112), "bat_d": bat_d(-0.35, -0.44, -0.85), "bat_n": V(-0.8, 0.7, 0),
-                 "chest_ypr": V(-93, 30, 4), "hips_ypr": V(-90, 14, 0), "look": V(0, 60, 600)}),
-        (-0.20, {"grip": V(11, 96, 160), "bat_d": bat_d(-0.15, -0.9, -0.45), "bat_n": V(-0.3, 0.2, 1)}),
-        (-0.14, {"l_toe": land, "l_heel": 0.0, "l_yaw": -62.0,      # lands 0.14 s before impact
-                 "hips_pos": V(29, 81, 150)}),
-        (0.0, {"hit": hit, "bat_d": bat_d(0, -1, -0.4), "bat_n": V(0, 0, 1),
-               "hips_pos": V(28, 78, 156), "hips_ypr": V(-80, 18, -4), "chest_ypr": V(-72, 42, -14),
-               "look": hit, "r_toe": STANCE_FEET["r_toe"], "r_heel": 0.0}),
-        (0.06, {"r_heel": 18.0}),
-        (0.15, {"hit": hit + V(-1, -1, 3), "bat_d": bat_d(0, -1, -0.42), "bat_n": V(0, 0, 1)}),
-        (0.25, {"r_toe": V(17, 2.5, 100)}),
-        (0.32, {"r_toe": V(17, 1, 102), "r_heel": 22.0}),      # back foot drags 5 cm (FD)
-        (0.45, {"hit": hit + V(-1, 2, 4), "bat_d": bat_d(-0.05, -1, -0.35), "bat_n": V(0, 0, 1),
-                "hips_pos": V(28, 79, 157), "hips_ypr": V(-80, 17, -4), "chest_ypr": V(-72, 40, -12),
-                "look": hit + V(0, 0, 60), "l_toe": land, "l_heel": 0.0, "l_yaw": -62.0}),
-        (0.62, {"r_toe": V(17, 1, 102), "r_heel": 22.0}),
-        (0.75, {"l_toe": V(15, 9, 175), "l_heel": 8.0, "l_yaw": -70.0,
-                "grip": V(12, 92, 140), "bat_d": bat_d(-0.2, -1, -0.2), "bat_n": V(-1, 0, 0.6)}),
-        (0.90, {"r_toe": STANCE_FEET["r_toe"], "r_heel": 0.0}),
-    ]
-    return with_ends(-1.0, 1.25, body), "Forward defence: front-foot stride to the pitch, bat angled down beside the pad."
+    L, R = Feet("l", t0), Feet("r", t0)
+    L.step(-0.64, -0.14, (13, 1, 210), -60.0, 10.0)          # FD: stride starts 0.64 s, lands 0.14 s before
+    R.pivot(-0.05, 0.10, heel=18.0, yaw=-78.0)
+    R.pivot(0.15, 0.35, heel=24.0, yaw=-72.0, drag=(0, 0, 5))  # FD back-foot drag 0.05 m
+    L.home(0.58, 0.92)
+    R.pivot(0.70, 0.95, heel=0.0, yaw=-90.0, drag=(0, 0, -5))
+    bats = [(-0.80, dict(STANCE_BAT)),
+            (-0.60, bat(grip=(17, 93, 110), d=(-0.15, -0.7, -0.7), x=(0.14, -1, 0.04))),
+            # top of the backlift 0.38 s before impact (FD downswing start); toe ~0.65 m up
+            (-0.38, bat(grip=(21, 104, 104), d=(-0.3, -0.45, -0.85), x=(0.42, -0.89, -0.21))),
+            (-0.20, bat(grip=(12, 96, 150), d=(-0.1, -0.9, -0.45), x=(0.2, -0.9, 0.4))),
+            (-0.08, bat(hit=(1, 41, 186), d=(-0.02, -1, -0.3), n=(0, 0, 1))),
+            (0.0, bat(hit=hit, d=(0, -1, -0.4), n=(0, 0, 1))),
+            (0.12, bat(hit=hit + V(-1, -1, 2), d=(0, -1, -0.42), n=(0, 0, 1))),
+            (0.45, bat(hit=hit + V(-1, 3, 3), d=(-0.03, -1, -0.35), n=(0, 0, 1))),
+            (0.75, bat(grip=(8, 92, 140), d=(-0.2, -1, -0.15), x=(0, -1, -0.3)))]
+    bodies = [(-0.70, body(hips=(29, 83, 113))),
+              (-0.38, body(hips=(28, 82, 124), hips_ypr=(-90, 12, 0), chest=(-93, 18, 20))),
+              (-0.14, body(hips=(26, 78, 150))),
+              (0.0, body(hips=(24, 75, 157), hips_ypr=(-80, 18, -4), chest=(-72, 38, -5))),
+              (0.45, body(hips=(24, 76, 158), hips_ypr=(-80, 17, -4), chest=(-73, 36, -4))),
+              (0.78, body(hips=(27, 80, 134), hips_ypr=(-86, 12, 0), chest=(-85, 20, 12)))]
+    looks = [(-0.55, BOWLER), (-0.30, (0, 80, 700)), (0.0, hit + V(0, 0, 10)), (0.45, hit + V(0, 0, 80)),
+             (0.85, BOWLER)]
+    return compose(t0, t1, bats, bodies, looks, [L, R]), "Forward defence: front-foot stride to the pitch, bat angled down beside the pad."
+
+
+RECOVER_BODY = body(hips=(27, 81, 130), hips_ypr=(-87, 11, 0), chest=(-86, 18, 12))
+
+
+def front_foot_drive(name, t0, t1, toe, yaw, hit, d_hit, n_hit, follow, hit_body, finish_body, desc):
+    """Drives share the measured drive timing (Stretch et al. 1998, D): stride
+    starts 0.58 s and the downswing 0.36 s before impact, the front foot lands
+    0.06 s before it, the back foot drags 0.10 m after."""
+    hit = V(*hit)
+    L, R = Feet("l", t0), Feet("r", t0)
+    L.step(-0.58, -0.06, toe, yaw, 11.0)
+    R.pivot(-0.02, 0.12, heel=22.0, yaw=-72.0)
+    R.pivot(0.15, 0.40, heel=34.0, yaw=-58.0, drag=(0, 0, 10))
+    L.home(0.66, 1.0)
+    R.pivot(0.80, 1.08, heel=0.0, yaw=-90.0, drag=(0, 0, -10))
+    bats = [(-0.80, dict(STANCE_BAT)),
+            (-0.58, bat(grip=(18, 95, 108), d=(-0.15, -0.6, -0.8))),
+            # top of the backlift at the downswing start, toe 0.74 m up (D)
+            (-0.36, bat(grip=(22, 110, 100), d=(-0.35, -0.44, -0.83))),
+            (-0.20, bat(grip=(14, 104, 140), d=(-0.2, -0.7, -0.7))),
+            (-0.08, bat(hit=hit + V(0, 42, -70), d=(-0.05, -0.55, -0.83), n=(0, -0.83, 0.55))),
+            (0.0, bat(hit=hit, d=d_hit, n=n_hit))] + follow
+    bodies = [(-0.65, body(hips=(29, 83, 114))),
+              (-0.36, body(hips=(28, 82, 126), hips_ypr=(-90, 12, 0), chest=(-95, 16, 22))),
+              (-0.06, body(hips=(25, 76, 152))),
+              (0.0, hit_body), (0.40, finish_body), (0.85, RECOVER_BODY)]
+    looks = [(-0.55, BOWLER), (-0.30, (0, 80, 700)), (0.0, hit + V(0, 0, 15)), (0.30, (hit + V(0, 30, 400))),
+             (0.95, BOWLER)]
+    return compose(t0, t1, bats, bodies, looks, [L, R]), desc
+
+
+def straight_drive():
+    return front_foot_drive(
+        "straight_drive", t_frames(31), 1.3, (14, 1, 205), -62.0,
+        hit=(-2, 30, 212), d_hit=(0, -1, -0.08), n_hit=(0, 0, 1),
+        follow=[(0.07, bat(hit=(-3, 45, 245), d=(0, -0.7, 0.7), n=(0, 0.7, 0.7))),
+                (0.20, bat(grip=(-5, 125, 205), d=(0.1, 0.3, 0.95))),
+                (0.42, bat(grip=(5, 150, 175), d=(0.3, 0.8, -0.5))),
+                (0.72, bat(grip=(6, 118, 150), d=(0.05, -0.5, -0.85)))],
+        hit_body=body(hips=(23, 74, 160), hips_ypr=(-78, 16, -4), chest=(-70, 32, -8)),
+        finish_body=body(hips=(23, 77, 165), hips_ypr=(-70, 12, -3), chest=(-55, 18, -10)),
+        desc="Straight drive: front-foot stride 0.68 m, full swing, face to the bowler, high finish.")
+
+
+def cover_drive():
+    return front_foot_drive(
+        "cover_drive", t_frames(30), 1.3, (0, 1, 198), -45.0,
+        hit=(-42, 30, 205), d_hit=(-0.15, -1, -0.1), n_hit=(-0.55, 0, 0.85),
+        follow=[(0.07, bat(hit=(-60, 48, 230), d=(-0.4, -0.6, 0.6), n=(-0.5, 0.6, 0.5))),
+                (0.20, bat(grip=(-30, 120, 195), d=(-0.3, 0.4, 0.85))),
+                (0.42, bat(grip=(-10, 148, 170), d=(0.2, 0.8, -0.5))),
+                (0.72, bat(grip=(2, 118, 150), d=(0.05, -0.5, -0.85)))],
+        hit_body=body(hips=(18, 74, 156), hips_ypr=(-72, 18, -4), chest=(-62, 36, -6)),
+        finish_body=body(hips=(18, 77, 160), hips_ypr=(-66, 12, -3), chest=(-50, 20, -8)),
+        desc="Cover drive: front foot to the off side, bat through the line of a wide half-volley toward cover.")
+
+
+def on_drive():
+    return front_foot_drive(
+        "on_drive", t_frames(29), 1.27, (24, 1, 200), -80.0,
+        hit=(16, 30, 207), d_hit=(0.05, -1, -0.1), n_hit=(0.45, 0, 0.9),
+        follow=[(0.07, bat(hit=(22, 46, 240), d=(0.3, -0.6, 0.7), n=(0.3, 0.7, 0.6))),
+                (0.20, bat(grip=(18, 122, 200), d=(0.3, 0.3, 0.9))),
+                (0.42, bat(grip=(20, 148, 172), d=(0.5, 0.7, -0.5))),
+                (0.72, bat(grip=(10, 118, 150), d=(0.05, -0.5, -0.85)))],
+        hit_body=body(hips=(28, 74, 156), hips_ypr=(-70, 16, -4), chest=(-58, 30, -8)),
+        finish_body=body(hips=(28, 77, 160), hips_ypr=(-60, 12, -3), chest=(-42, 16, -10)),
+        desc="On drive: front foot straight up the pitch, hips open, bat through mid-on.")
+
+
+def back_foot(t0, t1, r_toe, r_yaw, l_toe, l_yaw, bats, hit_body, finish_body, looks):
+    """Back-foot strokes: the back foot goes back and across while the bat is
+    at the top (no measured figures; the downswing keeps the ~0.36 s timing)."""
+    L, R = Feet("l", t0), Feet("r", t0)
+    R.step(-0.50, -0.24, r_toe, r_yaw, 8.0)
+    L.step(-0.28, -0.06, l_toe, l_yaw, 5.0)
+    R.home(0.62, 0.92)
+    L.home(0.72, 1.02)
+    bodies = [(-0.60, body(hips=(28, 83, 118))),
+              (-0.36, body(hips=(26, 83, 108), hips_ypr=(-92, 10, 2), chest=(-96, 16, 20))),
+              (0.0, hit_body), (0.40, finish_body), (0.85, RECOVER_BODY)]
+    return compose(t0, t1, bats, bodies, looks, [L, R])
+
+
+def back_foot_defence():
+    hit = V(-4, 72, 126)
+    bats = [(-0.80, dict(STANCE_BAT)),
+            (-0.55, bat(grip=(18, 100, 106), d=(-0.2, -0.6, -0.75))),
+            (-0.36, bat(grip=(20, 112, 102), d=(-0.35, -0.4, -0.85))),
+            (-0.18, bat(grip=(8, 120, 118), d=(-0.15, -0.85, -0.5))),
+            (-0.07, bat(hit=hit + V(1, 6, -16), d=(-0.03, -1, -0.22), n=(0, 0, 1))),
+            (0.0, bat(hit=hit, d=(0, -1, -0.3), n=(0, 0, 1))),
+            (0.12, bat(hit=hit + V(-1, -1, 2), d=(0, -1, -0.32), n=(0, 0, 1))),
+            (0.40, bat(hit=hit + V(0, 2, 1), d=(0, -1, -0.28), n=(0, 0, 1))),
+            (0.72, bat(grip=(6, 104, 125), d=(-0.1, -1, -0.2)))]
+    looks = [(-0.55, BOWLER), (-0.30, (0, 120, 600)), (0.0, hit + V(0, 0, 10)), (0.40, hit + V(0, -20, 60)),
+             (0.95, BOWLER)]
+    keys = back_foot(t_frames(30), 1.25, (16, 1, 84), -92.0, (19, 1, 124), -80.0, bats,
+                     body(hips=(26, 84, 104), hips_ypr=(-86, 10, 0), chest=(-80, 24, 4)),
+                     body(hips=(26, 84, 105), hips_ypr=(-86, 10, 0), chest=(-80, 22, 4)), looks)
+    return keys, "Back-foot defence: back and across, high left elbow, bat angled down over a rising ball."
+
+
+def square_cut():
+    hit = V(-68, 88, 118)
+    bats = [(-0.80, dict(STANCE_BAT)),
+            (-0.58, bat(grip=(20, 106, 106), d=(-0.3, -0.2, -0.9))),
+            (-0.36, bat(grip=(24, 130, 100), d=(-0.3, 0.6, -0.75))),           # high backlift
+            (-0.16, bat(grip=(2, 122, 104), d=(-0.8, 0.45, -0.4))),
+            (-0.06, bat(hit=hit + V(12, 34, -6), d=(-0.85, 0.1, 0.5), n=(-0.4, -0.6, -0.6))),
+            (0.0, bat(hit=hit, d=(-0.82, -0.18, 0.55), n=(-0.55, -0.1, -0.83))),
+            (0.10, bat(hit=hit + V(20, -26, 18), d=(-0.55, -0.55, 0.6), n=(-0.5, 0.1, -0.85))),
+            (0.30, bat(grip=(-8, 92, 128), d=(-0.2, -0.4, 0.9))),
+            (0.55, bat(grip=(2, 118, 135), d=(0.2, 0.5, 0.8)))]
+    looks = [(-0.55, BOWLER), (-0.30, (-20, 140, 600)), (0.0, hit + V(0, 0, 10)), (0.30, (-300, 60, 60)),
+             (0.95, BOWLER)]
+    keys = back_foot(t_frames(31), 1.3, (4, 1, 88), -100.0, (12, 1, 130), -88.0, bats,
+                     body(hips=(20, 80, 100), hips_ypr=(-96, 14, 4), chest=(-100, 30, -2)),
+                     body(hips=(20, 81, 102), hips_ypr=(-90, 12, 2), chest=(-90, 22, 0)), looks)
+    return keys, "Square cut: back and across to a short wide ball, arms extended, bat coming down on it toward point."
+
+
+def pull():
+    hit = V(-28, 125, 140)
+    bats = [(-0.80, dict(STANCE_BAT)),
+            (-0.58, bat(grip=(20, 110, 106), d=(-0.3, 0.1, -0.95))),
+            (-0.36, bat(grip=(25, 135, 98), d=(-0.45, 0.6, -0.65))),          # high backlift
+            (-0.15, bat(grip=(12, 130, 112), d=(-0.9, 0.35, -0.25))),
+            (-0.05, bat(hit=hit + V(2, 2, -22), d=(-0.95, 0.1, 0.1), n=(0.15, -0.1, 0.98))),
+            (0.0, bat(hit=hit, d=(-0.97, 0.05, 0.2), n=(0.2, -0.15, 0.97))),
+            (0.08, bat(hit=hit + V(40, -5, 30), d=(-0.6, 0, 0.8), n=(0.8, -0.15, 0.6))),
+            (0.25, bat(grip=(35, 118, 118), d=(0.4, 0.2, 0.9))),
+            (0.50, bat(grip=(38, 130, 100), d=(0.5, 0.5, -0.7)))]
+    looks = [(-0.55, BOWLER), (-0.30, (0, 160, 600)), (0.0, hit + V(0, 0, 10)), (0.30, (400, 80, 300)),
+             (0.95, BOWLER)]
+    keys = back_foot(t_frames(30), 1.3, (15, 1, 85), -100.0, (24, 1, 128), -50.0, bats,
+                     body(hips=(22, 84, 95), hips_ypr=(-45, 8, 0), chest=(-12, 14, -5)),
+                     body(hips=(24, 84, 96), hips_ypr=(-40, 8, 0), chest=(0, 12, -5)), looks)
+    return keys, "Pull: back and across to a short ball, body swivels to face the bowler, horizontal bat at chest height to mid-wicket."
+
+
+def leg_glance():
+    hit = V(8, 62, 132)
+    bats = [(-0.80, dict(STANCE_BAT)),
+            (-0.55, bat(grip=(18, 98, 106), d=(-0.2, -0.6, -0.75))),
+            (-0.36, bat(grip=(22, 106, 104), d=(-0.3, -0.45, -0.85))),
+            (-0.16, bat(grip=(14, 102, 122), d=(-0.1, -0.85, -0.5))),
+            (-0.06, bat(hit=hit + V(-2, 6, -12), d=(0, -1, -0.25), n=(0.3, 0, 1))),
+            (0.0, bat(hit=hit, d=(0.05, -1, -0.25), n=(0.6, 0, 0.8))),
+            (0.12, bat(hit=hit + V(4, -1, -3), d=(0.2, -1, -0.3), n=(0.85, 0, 0.55))),
+            (0.40, bat(grip=(14, 102, 122), d=(0.1, -1, -0.3))),
+            (0.72, bat(grip=(6, 100, 122), d=(-0.1, -1, -0.2)))]
+    looks = [(-0.55, BOWLER), (-0.30, (20, 90, 600)), (0.0, hit + V(0, 0, 10)), (0.35, (200, 20, -300)),
+             (0.95, BOWLER)]
+    keys = back_foot(t_frames(29), 1.22, (17, 1, 88), -95.0, (20, 1, 128), -76.0, bats,
+                     body(hips=(28, 83, 106), hips_ypr=(-86, 12, 0), chest=(-80, 24, 6)),
+                     body(hips=(28, 83, 107), hips_ypr=(-84, 12, 0), chest=(-76, 22, 6)), looks)
+    return keys, "Leg glance: back foot, ball off the hip turned fine with a closing face and soft wrists."
+
+
+def sweep():
+    t0, t1 = t_frames(31), 1.4
+    hit = V(-15, 15, 225)
+    L, R = Feet("l", t0), Feet("r", t0)
+    L.step(-0.60, -0.12, (2, 1, 195), -45.0, 8.0)
+    R.pivot(-0.50, -0.15, heel=60.0, yaw=-70.0)               # back knee goes down to the turf
+    R.pivot(0.60, 0.90, heel=0.0, yaw=-90.0)
+    L.home(0.70, 1.05)
+    bats = [(-0.80, dict(STANCE_BAT)),
+            (-0.58, bat(grip=(20, 100, 108), d=(-0.3, -0.5, -0.8))),
+            (-0.36, bat(grip=(16, 105, 112), d=(-0.6, -0.2, -0.75))),
+            (-0.15, bat(grip=(0, 70, 160), d=(-0.9, -0.3, 0.3))),
+            (-0.05, bat(hit=hit + V(-20, 8, -10), d=(-0.75, -0.4, 0.5), n=(0.6, -0.4, 0.65))),
+            (0.0, bat(hit=hit, d=(-0.5, -0.45, 0.74), n=(0.8, -0.35, 0.5))),
+            (0.10, bat(hit=hit + V(30, 6, 0), d=(0.1, -0.35, 0.93), n=(0.95, -0.2, 0.1))),
+            (0.35, bat(grip=(35, 75, 165), d=(0.6, 0.5, 0.6))),
+            (0.70, bat(grip=(12, 95, 135), d=(-0.1, -0.9, -0.3)))]
+    bodies = [(-0.60, body(hips=(29, 83, 116))),
+              (-0.36, body(hips=(26, 72, 128), hips_ypr=(-85, 16, 0), chest=(-88, 28, 10))),
+              (-0.12, body(hips=(21, 60, 140))),
+              (0.0, body(hips=(20, 57, 142), hips_ypr=(-70, 25, -5), chest=(-60, 36, -8))),
+              (0.40, body(hips=(20, 58, 142), hips_ypr=(-66, 20, -5), chest=(-50, 28, -8))),
+              (0.90, RECOVER_BODY)]
+    looks = [(-0.55, BOWLER), (-0.30, (-10, 40, 600)), (0.0, hit + V(0, 0, 10)), (0.35, (400, 0, 200)),
+             (1.0, BOWLER)]
+    return compose(t0, t1, bats, bodies, looks, [L, R]), "Sweep: long stride, back knee down, horizontal bat sweeping a full ball from outside off to square leg."
 
 
 SHOTS = {
     "forward_defence": forward_defence,
+    "back_foot_defence": back_foot_defence,
+    "straight_drive": straight_drive,
+    "cover_drive": cover_drive,
+    "on_drive": on_drive,
+    "square_cut": square_cut,
+    "pull": pull,
+    "leg_glance": leg_glance,
+    "sweep": sweep,
 }

@@ -322,10 +322,10 @@ def shoulder_positions(solver: PoseSolver, hips_pos, hips_rot, chest_rot) -> np.
 
 
 def fit_torso(solver: PoseSolver, T: dict, chest_ypr: np.ndarray, env: np.ndarray,
-              lo: float = 0.74, hi: float = 0.9) -> np.ndarray:
+              lo: float = 0.45, hi: float = 0.9) -> np.ndarray:
     """Small per-frame chest yaw/pitch/roll offsets ``(F, 3)`` that keep both
     arms' shoulder-to-wrist distance inside [lo, hi] of full reach (elbows
-    neither locked straight nor folded past 90 degrees), found by grid search,
+    neither locked straight nor folded tight), found by grid search,
     then smoothed over time and faded out by ``env`` (F,)."""
     l_wrist, _, r_wrist, _ = solver.hand_targets(T["grip"], T["bat_rot"])
     full = (solver.bone("LeftArmRoll") + solver.bone("LeftForeArm")

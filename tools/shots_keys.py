@@ -45,11 +45,17 @@ def grip_from_hit(hit, d, n) -> np.ndarray:
     return np.asarray(hit, float) - bat_frame(np.asarray(d, float), np.asarray(n, float)) @ BAT_FROM_GRIP
 
 
-def resolve_bat_keys(keys: list) -> list:
-    """Turn 'hit' and 'toe' bat keys into 'grip' keys (per key, exact)."""
+def resolve_bat_keys(keys: list, shoulders=None) -> list:
+    """Turn 'hit' and 'toe' bat keys into 'grip' keys (per key, exact), and
+    give 'bat_auto' keys the face normal that lets the forearms point from
+    the shoulders toward the hands: ``shoulders(t) -> (2, 3)``."""
     out = []
     for t, k in keys:
         k = dict(k)
+        if k.pop("bat_auto", False):
+            d = unit(np.asarray(k["bat_d"], float))
+            mid = shoulders(t).mean(0)
+            k["bat_n"] = np.cross(-d, unit(perp(np.asarray(k["grip"], float) - mid, d)))
         if "hit" in k:
             k["grip"] = grip_from_hit(k.pop("hit"), k["bat_d"], k["bat_n"])
         if "toe" in k:
@@ -71,8 +77,19 @@ def sample(keys: list, channel: str, times: np.ndarray) -> np.ndarray:
     return out
 
 
-def tracks(keys: list, times: np.ndarray) -> dict:
-    keys = resolve_bat_keys(keys)
+BODY = ("hips_pos", "hips_ypr", "chest_ypr")
+
+
+def tracks(keys: list, times: np.ndarray, solver=None) -> dict:
+    """Sampled channels ``{name: (F, n)}``; ``solver`` (a PoseSolver) places
+    the shoulders for 'bat_auto' keys."""
+    from .shots_ik import shoulder_positions
+
+    def shoulders(t):
+        b = {c: sample(keys, c, np.array([t]))[0] for c in BODY}
+        return shoulder_positions(solver, b["hips_pos"], ypr(*b["hips_ypr"]), ypr(*b["chest_ypr"]))
+
+    keys = resolve_bat_keys(keys, shoulders)
     return {c: sample(keys, c, times) for c in VECTOR if any(c in k for _, k in keys)}
 
 
