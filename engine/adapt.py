@@ -272,7 +272,7 @@ def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_
         eff = eff2
         res = res2
         lam = max(0.05, lam * 0.5)
-        if gain < 1e-7:
+        if gain < 1e-3 * res:       # stalled against a limit: as near as it gets
             break
     return vnorm(vsub(eff, target_pos)), q_angle(_q_at(g_rot, n - 1), target_rot)
 
@@ -425,7 +425,7 @@ def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_
                 eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
                 if vnorm(vsub(eff, t_pos)) >= tol or oe >= ori_tol:
                     grip_solve(prot, ppos, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                               tol, ori_tol, 50, g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+                               tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
                 for k in range(nr):
                     for c in range(4):
                         out_local[i, rj[k], c] = loc_r[k, c]

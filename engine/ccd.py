@@ -565,21 +565,40 @@ def _outside_np(a, lo, hi):
     return np.where((a >= lo) & (a <= hi), 0.0, np.minimum(d_lo, d_hi))
 
 
+@njit(cache=True)
+def _limit_euler_nb(local, lo, hi, out):
+    """local (M,J,4), lo/hi (J,3) radians -> out (M,J,3) radians, best branch."""
+    for i in range(local.shape[0]):
+        for j in range(local.shape[1]):
+            e1 = to_euler_zyx((local[i, j, 0], local[i, j, 1], local[i, j, 2], local[i, j, 3]))
+            e2 = other_branch(e1)
+            s1 = 0.0
+            s2 = 0.0
+            for c in range(3):
+                s1 += _outside(e1[c], lo[j, c], hi[j, c])
+                s2 += _outside(e2[c], lo[j, c], hi[j, c])
+            e = e2 if s2 < s1 - 1e-11 else e1
+            out[i, j, 0] = e[0]
+            out[i, j, 1] = e[1]
+            out[i, j, 2] = e[2]
+
+
 def limit_euler(local_rotations, limits) -> np.ndarray:
     """Euler angles ``(..., J, 3)`` degrees (columns z, y, x) of local rotations
     ``(..., J, 4)`` in whichever of the two ZYX branches fits ``limits (J,3,2)``
-    better (columns without a DOF have limits [0, 0]).
+    (degrees) better; columns without a DOF have limits [0, 0].
 
     ``quat.to_euler`` keeps the middle angle in [-90, 90], so an elbow flexed
     by 120 degrees comes out as (180, -60, 180); its other branch (0, -120, 0)
     is the one the rig's limits are written in.
     """
-    e1 = quat.to_euler(np.asarray(local_rotations, float), "ZYX")
-    e2 = (np.stack([e1[..., 0] + 180.0, 180.0 - e1[..., 1], e1[..., 2] + 180.0], -1) + 180.0) % 360.0 - 180.0
-    lo, hi = limits[..., 0], limits[..., 1]
-    s1 = _outside_np(e1, lo, hi).sum(-1)
-    s2 = _outside_np(e2, lo, hi).sum(-1)
-    return np.where((s2 < s1 - 1e-9)[..., None], e2, e1)
+    q = np.asarray(local_rotations, float)
+    lim = np.radians(np.asarray(limits, float))
+    J = q.shape[-2]
+    flat = np.ascontiguousarray(q.reshape(-1, J, 4))
+    out = np.empty(flat.shape[:-1] + (3,))
+    _limit_euler_nb(flat, np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1]), out)
+    return np.degrees(out).reshape(q.shape[:-1] + (3,))
 
 
 def limit_violation(local_rotations, limits) -> np.ndarray:

@@ -1,0 +1,156 @@
+"""``hitpoint bench``: engine timings as JSON (IK per frame and per shot, skinning, ikpy)."""
+from __future__ import annotations
+
+import json
+import time
+
+import typer
+
+from app.errors import cli_errors
+
+
+def _stats(samples, scale: float) -> dict:
+    import numpy as np
+    a = np.asarray(samples) * scale
+    return {"median": round(float(np.median(a)), 3), "p95": round(float(np.percentile(a, 95)), 3),
+            "n": len(a)}
+
+
+def _time(fn, reps: int, warmup: int = 3) -> list[float]:
+    for _ in range(warmup):
+        fn()
+    out = []
+    for _ in range(reps):
+        t = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t)
+    return out
+
+
+def ikpy_chain(rig, chain, parent_rot, start_euler_rad, lo, hi):
+    """An ikpy chain equal to one of our chains for one frame: the base is the
+    chain's parent joint frame, each Euler column is a revolute link (free) or
+    a fixed turn by its source angle (locked), the effector a fixed link."""
+    import numpy as np
+    from ikpy.chain import Chain
+    from ikpy.link import OriginLink, URDFLink
+    links = [OriginLink()]
+    mask = [False]
+    axes = ((0, 0, 1), (0, 1, 0), (1, 0, 0))
+    for k, j in enumerate(chain.joints):
+        for c in range(3):
+            trans = chain.offsets[k] if c == 0 else np.zeros(3)
+            name = f"{rig.skeleton.names[j]}_{'zyx'[c]}"
+            if chain.free[k, c]:
+                links.append(URDFLink(name, trans, np.zeros(3), rotation=np.array(axes[c], float),
+                                      bounds=(lo[k, c], hi[k, c])))
+                mask.append(True)
+            else:
+                rpy = np.zeros(3)
+                rpy[2 - c] = start_euler_rad[k, c]      # rpy = (x, y, z) angles
+                links.append(URDFLink(name, trans, rpy, joint_type="fixed"))
+                mask.append(False)
+    links.append(URDFLink("effector", chain.eff_off, np.zeros(3), joint_type="fixed"))
+    mask.append(False)
+    ch = Chain(links, active_links_mask=mask)
+    init = np.zeros(len(links))
+    i = 1
+    for k in range(len(chain.joints)):
+        for c in range(3):
+            if chain.free[k, c]:
+                init[i] = start_euler_rad[k, c]
+            i += 1
+    return ch, init
+
+
+def run_bench(reps: int = 200) -> dict:
+    import warnings
+
+    import numpy as np
+
+    from engine import ccd, quat
+    from engine.adapt import Adapter, AdaptSettings
+    from engine.library import load_library
+    from engine.rig import default_rig
+    from engine.skeleton import bind_positions, skinning_matrices
+
+    rig = default_rig()
+    shot = load_library(rig=rig)[0]
+    adapter = Adapter(rig, shot)
+    settings = AdaptSettings()
+    h = shot.hit_frame
+    rng = np.random.default_rng(1)
+    targets = shot.hit_point + rng.uniform(-20, 20, size=(16, 3))
+    it = iter(range(10 ** 9))
+
+    def one_frame():
+        adapter.adapt_frame(h, targets[next(it) % len(targets)], settings)
+
+    def whole_shot():
+        adapter.adapt(targets[next(it) % len(targets)], settings)
+
+    res = {"shot": shot.name, "frames": shot.num_frames, "hit_frame": h, "solver": "ccd",
+           "targets": "hit point + uniform(-20, 20) cm"}
+    res["one_frame_both_arms_us"] = _stats(_time(one_frame, reps), 1e6)
+    res["whole_shot_ms"] = _stats(_time(whole_shot, max(reps // 4, 20)), 1e3)
+    grot, gpos = shot.fk
+    bind = bind_positions(rig.skeleton)
+    res["skinning_one_frame_us"] = _stats(_time(lambda: skinning_matrices(grot[h], gpos[h], bind), reps), 1e6)
+
+    # the left-arm chain alone, ours vs ikpy, same start pose and targets
+    chain = ccd.chain_arrays(rig, "left_arm", 0)
+    lim = np.radians(rig.limits[chain.joints])
+    src = np.radians(ccd.limit_euler(shot.clip.local_rotations[h, chain.joints], rig.limits[chain.joints]))
+    lo = np.minimum(lim[..., 0], src)
+    hi = np.maximum(lim[..., 1], src)
+    pr, pp = grot[h, chain.parent], gpos[h, chain.parent]
+    start = shot.clip.local_rotations[h:h + 1, chain.joints]
+    ours_err = []
+
+    def ours():
+        k = next(it) % len(targets)
+        _, e, _ = ccd.solve(chain, pr[None], pp[None], start, targets[k][None])
+        ours_err.append(float(e[0]))
+
+    t_ours = _time(ours, reps)
+    try:
+        ch, init = ikpy_chain(rig, chain, pr, src, lo, hi)
+        local_targets = quat.rotate(quat.conjugate(pr), targets - pp)
+        fk0 = ch.forward_kinematics(init)[:3, 3]
+        bat0 = quat.rotate(quat.conjugate(pr), gpos[h, rig.bat_joint] - pp)
+        ik_err = []
+
+        def theirs():
+            k = next(it) % len(targets)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                sol = ch.inverse_kinematics(local_targets[k], initial_position=init)
+            ik_err.append(float(np.linalg.norm(ch.forward_kinematics(sol)[:3, 3] - local_targets[k])))
+
+        t_ik = _time(theirs, max(reps // 10, 10), warmup=1)
+        ik = _stats(t_ik, 1e3)
+        res["ikpy_left_arm_ms"] = ik
+        res["ours_left_arm_us"] = _stats(t_ours, 1e6)
+        res["ikpy_over_ours"] = round(float(np.median(t_ik) / np.median(t_ours)), 1)
+        res["ikpy_median_error_cm"] = round(float(np.median(ik_err)), 4)
+        res["ours_median_error_cm"] = round(float(np.median(ours_err)), 6)
+        res["ikpy_start_matches_cm"] = round(float(np.linalg.norm(fk0 - bat0)), 6)
+    except ImportError:
+        res["ikpy_left_arm_ms"] = None
+        res["ours_left_arm_us"] = _stats(t_ours, 1e6)
+    return res
+
+
+def register(cli: typer.Typer) -> None:
+    @cli.command("bench")
+    @cli_errors
+    def bench(as_json: bool = typer.Option(False, "--json", help="Print JSON only."),
+              reps: int = typer.Option(200, "--reps", min=10, help="Timed repetitions per figure.")):
+        """Engine timings: one frame adapted (both arms), a whole shot, skinning
+        matrices for one frame, and ikpy on the same left-arm chain (median, p95)."""
+        res = run_bench(reps)
+        if as_json:
+            print(json.dumps(res))
+            return
+        for k, v in res.items():
+            print(f"{k:<28}{v}")
