@@ -56,33 +56,42 @@ def bat_segment(rig, global_rotations: np.ndarray, global_positions: np.ndarray)
     return global_positions[..., hand, None, :] + quat.rotate(np.broadcast_to(r, r.shape[:-2] + (2, 4)), local)
 
 
-def strip_camera(points: np.ndarray, cell: tuple[int, int], fovy: float = 30.0):
-    """Off-side camera (from -X, a little toward the bowler) framing ``points (N,3)``; (view, proj)."""
+def strip_camera(points: np.ndarray, cell: tuple[int, int], fovy: float = 30.0, margin: float = 0.86):
+    """Off-side camera (from -X, a little toward the bowler) framing ``points (N,3)``; (view, proj).
+
+    Starts close and backs off until every point projects inside ``margin`` of the frame.
+    """
     from app.render import look_at, perspective
-    lo, hi = points.min(0), points.max(0)
-    centre = 0.5 * (lo + hi)
+    centre = 0.5 * (points.min(0) + points.max(0))
     direction = np.array([-1.0, 0.18, 0.22])
     direction /= np.linalg.norm(direction)
-    aspect = cell[0] / cell[1]
-    half = 0.5 * (hi - lo)
-    radius_v = max(half[1], 40.0) * 1.06
-    radius_h = max(np.hypot(half[0] * 0.25, half[2]), 40.0) * 1.06
-    t = np.tan(np.radians(fovy) / 2)
-    dist = max(radius_v / t, radius_h / (t * aspect)) + 0.6 * max(half[0], 30.0)
-    eye = centre + direction * dist
-    return look_at(eye, centre), perspective(fovy, aspect, 10.0, 20000.0)
+    proj = perspective(fovy, cell[0] / cell[1], 10.0, 20000.0)
+    homo = np.concatenate([points, np.ones((len(points), 1))], 1)
+    dist = 150.0
+    for _ in range(60):
+        view = look_at(centre + direction * dist, centre)
+        clip = homo @ (proj @ view).T
+        ndc = clip[:, :2] / np.maximum(clip[:, 3:], 1e-6)
+        if np.all(clip[:, 3] > 0) and np.abs(ndc).max() <= margin:
+            break
+        dist *= 1.06
+    return view, proj
 
 
 def render_strip(shot, rig, count: int, cell: tuple[int, int]):
     """The contact sheet as a PIL image."""
     from PIL import Image, ImageDraw
     from app.render import SceneRenderer, SceneView, offscreen_context, render_image
+    from engine import quat
     from engine.skeleton import bind_positions, skinning_matrices
 
     frames = strip_frames(shot.num_frames, shot.hit_frame, count)
     g_rot, g_pos = shot.fk
     bats = bat_segment(rig, g_rot[frames], g_pos[frames])
-    pts = np.concatenate([g_pos[frames].reshape(-1, 3), bats.reshape(-1, 3), [[g_pos[frames, 0, 0].mean(), 0.0, g_pos[frames, 0, 2].mean()]]])
+    head = rig.skeleton.index("Head")
+    head_top = g_pos[frames, head] + quat.rotate(g_rot[frames, head], rig.skeleton.end_sites.get(head, np.zeros(3)) * 1.2)
+    pts = np.concatenate([g_pos[frames].reshape(-1, 3), bats.reshape(-1, 3), head_top,
+                          [[g_pos[frames, 0, 0].mean(), 0.0, g_pos[frames, 0, 2].mean()]]])
     view, proj = strip_camera(pts, cell)
     skins = skinning_matrices(g_rot[frames], g_pos[frames], bind_positions(rig.skeleton))
 

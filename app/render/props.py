@@ -173,3 +173,67 @@ def ground() -> tuple[np.ndarray, np.ndarray]:
         for x0, x1, za, zb in crease_rects(z0, d):
             quads.append(_quad(x0, x1, za, zb, LINE))
     return np.concatenate([q[0] for q in quads]), np.concatenate([q[1] for q in quads])
+
+
+# ----------------------------------------------------------------- stadium
+BOUNDARY = (6300.0, 7000.0)     # boundary rope half-axes (x, z) around the pitch centre, cm
+BOARD_COLORS = [(0.10, 0.18, 0.45), (0.80, 0.12, 0.12), (0.95, 0.80, 0.15), (0.10, 0.50, 0.30), (0.95, 0.95, 0.95)]
+CROWD = [(0.62, 0.22, 0.20), (0.20, 0.30, 0.55), (0.80, 0.78, 0.70), (0.30, 0.45, 0.30), (0.75, 0.62, 0.25)]
+
+
+def _ring(theta: np.ndarray, scale: float) -> np.ndarray:
+    """Points (K,3) on the oval of the boundary scaled by ``scale``, around the pitch centre."""
+    return np.stack([np.cos(theta) * BOUNDARY[0] * scale, np.zeros_like(theta),
+                     PITCH_LENGTH / 2 + np.sin(theta) * BOUNDARY[1] * scale], 1)
+
+
+def _band(a: np.ndarray, b: np.ndarray, ca, cb) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles joining polyline ``a`` to polyline ``b`` (both (K,3)); colours per vertex row."""
+    ca, cb = np.broadcast_to(ca, a.shape), np.broadcast_to(cb, b.shape)
+    i = np.arange(len(a) - 1)
+    tri = np.stack([np.stack([a[i], a[i + 1], b[i + 1]], 1), np.stack([a[i], b[i + 1], b[i]], 1)], 1)
+    col = np.stack([np.stack([ca[i], ca[i + 1], cb[i + 1]], 1), np.stack([ca[i], cb[i + 1], cb[i]], 1)], 1)
+    return tri.reshape(-1, 3), col.reshape(-1, 3)
+
+
+def stadium(segments: int = 96) -> tuple[np.ndarray, np.ndarray]:
+    """Boundary rope, advertising boards, sightscreens and tiered stands with a crowd, as
+    flat-lit coloured triangles (positions (N,3), sRGB colours (N,3)); a few thousand triangles."""
+    rng = np.random.default_rng(7)
+    theta = np.linspace(0, 2 * np.pi, segments + 1)
+    parts = []
+    # rope: a low white ribbon just off the grass
+    r0, r1 = _ring(theta, 1.0), _ring(theta, 1.0 + 10.0 / BOUNDARY[0])
+    r0[:, 1] = r1[:, 1] = 4.0
+    parts.append(_band(r0, r1, (0.97, 0.97, 0.97), (0.97, 0.97, 0.97)))
+    # advertising boards: one colour per board (duplicated vertices for hard colour edges)
+    lo, hi = _ring(theta, 1.06), _ring(theta, 1.06)
+    hi[:, 1] = 90.0
+    for k in range(segments):
+        c = BOARD_COLORS[k % len(BOARD_COLORS)]
+        parts.append(_band(lo[k:k + 2], hi[k:k + 2], c, np.minimum(np.asarray(c) * 1.15 + 0.05, 1.0)))
+    # stands: tiers rising away from the field, seat sections in muted colours (flat per section)
+    tiers = [(1.10, 1.10, 180.0), (1.10, 1.20, 520.0), (1.20, 1.30, 950.0), (1.30, 1.36, 1250.0)]
+    for k, (s0, s1, h1) in enumerate(tiers):
+        a = _ring(theta, s0)
+        b = _ring(theta, s1)
+        a[:, 1] = 0.0 if k == 0 else tiers[k - 1][2]
+        b[:, 1] = h1
+        if k == 0:   # the front wall below the first tier
+            parts.append(_band(a, b, (0.34, 0.36, 0.40), (0.42, 0.44, 0.48)))
+            continue
+        for j in range(segments):
+            c = np.asarray(CROWD[(j // 4 + k) % len(CROWD)]) * 0.45 + 0.25
+            c = c * rng.uniform(0.85, 1.0)
+            parts.append(_band(a[j:j + 2], b[j:j + 2], c * 0.8, c))
+    top = _ring(theta, tiers[-1][1])
+    top[:, 1] = tiers[-1][2]
+    roof = _ring(theta, tiers[-1][1] + 0.03)
+    roof[:, 1] = tiers[-1][2] + 300.0
+    parts.append(_band(top, roof, (0.78, 0.80, 0.84), (0.90, 0.91, 0.93)))
+    # sightscreens behind each wicket, in front of the stands
+    for z, sign in ((PITCH_LENGTH / 2 - BOUNDARY[1] * 1.08, 1), (PITCH_LENGTH / 2 + BOUNDARY[1] * 1.08, -1)):
+        a = np.array([[-700.0, 0.0, z], [700.0, 0.0, z]])
+        b = a + (0.0, 700.0, 0.0)
+        parts.append(_band(a, b, (0.96, 0.96, 0.96), (0.99, 0.99, 0.99)))
+    return np.concatenate([p[0] for p in parts]).astype(np.float32), np.concatenate([p[1] for p in parts]).astype(np.float32)

@@ -29,7 +29,7 @@ LIGHTING = {
     "u_sun_dir": tuple(SUN_DIR), "u_sun_color": (1.75, 1.66, 1.52),
     "u_fill_dir": tuple(FILL_DIR), "u_fill_color": (0.26, 0.28, 0.34),
     "u_sky_ambient": (0.30, 0.36, 0.47), "u_ground_ambient": (0.17, 0.20, 0.13),
-    "u_haze_color": (0.80, 0.87, 0.95), "u_haze_density": 1.0 / 30000.0,
+    "u_haze_color": (0.80, 0.87, 0.95), "u_haze_density": 1.0 / 22000.0,
 }
 ZENITH, HORIZON = (0.24, 0.46, 0.82), (0.80, 0.87, 0.95)
 
@@ -155,6 +155,10 @@ class SceneRenderer:
         self.ground_bufs = [ctx.buffer(gpos.astype("f4").tobytes()), ctx.buffer(gcol.astype("f4").tobytes())]
         self.ground = _vao(ctx, self.p_ground, [(self.ground_bufs[0], "3f", "in_pos"),
                                                 (self.ground_bufs[1], "3f", "in_color")])
+        spos, scol = props.stadium()
+        self.stadium_bufs = [ctx.buffer(spos.tobytes()), ctx.buffer(scol.tobytes())]
+        self.stadium = _vao(ctx, self.p_ground, [(self.stadium_bufs[0], "3f", "in_pos"),
+                                                 (self.stadium_bufs[1], "3f", "in_color")])
         self.sky = ctx.vertex_array(self.p_sky, [])
 
         self.shadow_tex = ctx.depth_texture((SHADOW_SIZE, SHADOW_SIZE))
@@ -294,6 +298,8 @@ class SceneRenderer:
             self.target.lit.render()
             set_uniform(self.p_static, "u_emissive", (0.0, 0.0, 0.0))
         ctx.disable(moderngl.CULL_FACE)
+        if view.show_pitch:
+            self.stadium.render()    # flat-lit, after the near geometry so early-z skips hidden parts
         ctx.depth_func = "<="
         set_uniform(self.p_sky, "u_inv_view_proj", np.linalg.inv(vp.astype(float)).astype(np.float32))
         self.sky.render(vertices=3)
