@@ -58,7 +58,7 @@ def changed(a, b, tol=12):
 
 
 def test_image_shape_and_sky_gradient(renderer, rig):
-    img = render(renderer, view_of(None))
+    img = render(renderer, view_of(None, show_pitch=False))    # no ground, no stadium: sky only
     assert img.shape == (SIZE[1], SIZE[0], 3)
     top, horizon = img[2].mean(0), img[SIZE[1] // 3].mean(0)
     assert top[2] > top[0] and horizon.sum() > top.sum()   # blue zenith, paler toward the horizon
