@@ -38,11 +38,11 @@ def side(prefix, s):
     L = prefix
     return [
         joint(f"{L}Shoulder", "Spine2", [3.0 * s, 12.0, 0.0], "zy", lim([-25, 35], [-30, 30], None)),
-        joint(f"{L}Arm", f"{L}Shoulder", [15.0 * s, 0.0, 0.0], "zyx", lim([-110, 100], [-160, 70], [-90, 90])),
+        joint(f"{L}Arm", f"{L}Shoulder", [15.0 * s, 0.0, 0.0], "zyx", lim([-170, 170], [-160, 75], [-90, 90])),
         joint(f"{L}ArmRoll", f"{L}Arm", [14.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 90])),
         joint(f"{L}ForeArm", f"{L}ArmRoll", [14.0 * s, 0.0, 0.0], "y", lim(None, [-150, 0], None)),
-        joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-110, 110])),
-        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-75, 75], [-65, 45], None),
+        joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-130, 130])),
+        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-90, 90], [-70, 55], None),
               end=[9.0 * s, 0.0, 0.0]),
     ]
 
@@ -59,7 +59,7 @@ def leg(prefix, s):
     return [
         joint(f"{L}UpLeg", "Hips", [9.0 * s, -6.0, 0.0], "zyx", lim([-20, 60], [-70, 70], [-120, 45])),
         joint(f"{L}Leg", f"{L}UpLeg", [0.0, -44.0, 0.0], "x", lim(None, None, [0, 150])),
-        joint(f"{L}Foot", f"{L}Leg", [0.0, -41.0, 0.0], "zyx", lim([-35, 35], [-35, 35], [-50, 55])),
+        joint(f"{L}Foot", f"{L}Leg", [0.0, -41.0, 0.0], "zyx", lim([-40, 40], [-35, 35], [-55, 55])),
         joint(f"{L}ToeBase", f"{L}Foot", [0.0, -6.0, 13.0], "x", lim(None, None, [-60, 30]),
               end=[0.0, 0.0, 7.0]),
     ]

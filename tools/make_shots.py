@@ -27,7 +27,7 @@ from engine.skeleton import Clip, clip_fk
 
 from . import shots_check as chk
 from .shots_defs import SHOTS
-from .shots_ik import PoseSolver, fit_torso
+from .shots_ik import PoseSolver, fit_torso, shoulder_positions
 from .shots_keys import FPS, targets, tracks
 
 # noise amplitude per channel (cm or degrees): a captured batsman never
@@ -55,6 +55,22 @@ def envelope(n: int, ramp: int = 8) -> np.ndarray:
     return x
 
 
+def unfold(solver, T, times, d_min: float = 27.0) -> np.ndarray:
+    """Grip offsets ``(F, 3)`` pushing each wrist out to ``d_min`` from its shoulder."""
+    sh = shoulder_positions(solver, T["hips_pos"], T["hips_rot"], T["chest_rot"])
+    l_wrist, _, r_wrist, _ = solver.hand_targets(T["grip"], T["bat_rot"])
+    push = np.zeros_like(l_wrist)
+    for k, w in ((0, l_wrist), (1, r_wrist)):
+        v = w - sh[:, k]
+        dist = np.linalg.norm(v, axis=-1, keepdims=True)
+        push += np.maximum(0.0, d_min - dist) * v / np.maximum(dist, 1e-9)
+    k = np.exp(-0.5 * (np.arange(-8, 9) / 2.5) ** 2)
+    pad = np.pad(push, ((8, 8), (0, 0)), mode="edge")
+    smooth = np.stack([np.convolve(pad[:, i], k, "valid") for i in range(3)], -1)
+    # the stroke's contact is never moved
+    return 1.6 * smooth * (1.0 - np.exp(-0.5 * (times / 0.1) ** 2))[:, None] * envelope(len(times), 6)[:, None]
+
+
 def build(name: str, rig=None, noise: bool = True):
     """(skeleton, clip, hit_frame, description, info) for one shot."""
     rig = rig or default_rig()
@@ -74,6 +90,15 @@ def build(name: str, rig=None, noise: bool = True):
     # lean the chest where the keyed torso would leave an arm locked or folded
     tr["chest_ypr"] = tr["chest_ypr"] + fit_torso(solver, T, tr["chest_ypr"], envelope(len(times), 4))
     T = targets(tr)
+    # never fold an elbow shut: where a hand comes within 27 cm of its
+    # shoulder (elbow past ~135 degrees), carry the bat out of the way
+    for _ in range(3):
+        tr["grip"] = tr["grip"] + unfold(solver, T, times)
+        T = targets(tr)
+    # the face may turn about the bat's axis except near impact and at the
+    # shared first and last frames
+    near_hit = np.exp(-0.5 * (times / 0.06) ** 2)
+    T["roll_weight"] = 0.05 + 200.0 * near_hit + 200.0 * (1.0 - envelope(len(times), 6))
     root, local, info = solver.solve(T)
     clip = Clip(root, local, FPS)
     return rig.skeleton, clip, n_pre, description, {"tracks": tr, **info}

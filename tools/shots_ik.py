@@ -173,9 +173,36 @@ class PoseSolver:
             self._clavicle(L, g_rot, g_pos, pre, wrist, s, gain)
         g_rot, g_pos = self.fk(T["hips_pos"], L)
         pref = T["wrist_pref"]
+        if "roll_weight" in T:
+            # turn the bat about its own axis where the stroke leaves the face
+            # free, so both arms find comfortable joint angles
+            roll = self._choose_roll(g_rot, g_pos, T, pref)
+            info["roll"] = roll
+            T = dict(T, bat_rot=T["bat_rot"] @ rot_axis(2, roll))
+            l_wrist, l_rot, r_wrist, r_rot = self.hand_targets(T["grip"], T["bat_rot"])
+        info["bat_rot"] = T["bat_rot"]
         for pre, wrist, hrot, s, pr in (("Left", l_wrist, l_rot, 1.0, pref), ("Right", r_wrist, r_rot, -1.0, 0 * pref)):
             info[pre + "_reach"] = self._arm(L, g_rot, g_pos, pre, wrist, hrot, s, pr)
         return T["hips_pos"], quat.make_continuous(to_q(L)), info
+
+    ROLLS = np.arange(-90.0, 90.1, 7.5)
+
+    def _choose_roll(self, g_rot, g_pos, T, pref):
+        """Bat roll about its axis per frame ``(F,)`` degrees: Viterbi over the
+        arms' best comfort cost, charged ``roll_weight * (roll / 20)^2``."""
+        psi = np.radians(np.arange(0, 360, 10.0))
+        F = g_pos.shape[0]
+        costs = np.zeros((F, len(self.ROLLS)))
+        for k, r in enumerate(self.ROLLS):
+            lw, lr, rw, rr = self.hand_targets(T["grip"], T["bat_rot"] @ rot_axis(2, np.full(F, r)))
+            for pre, w, hr, s, pr in (("Left", lw, lr, 1.0, pref), ("Right", rw, rr, -1.0, 0 * pref)):
+                l1 = self.bone(pre + "ArmRoll") + self.bone(pre + "ForeArm")
+                l2 = self.bone(pre + "ForeArmRoll") + self.bone(pre + "Hand")
+                ang = self._arm_angles(g_pos[:, self.ix[pre + "Arm"]], w, hr,
+                                       g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
+                costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None]).min(1)
+        costs += T["roll_weight"][:, None] * (self.ROLLS / 20.0) ** 2
+        return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0)]
 
     def _leg(self, L, g_rot, g_pos, T, side, pre):
         ix = self.ix
@@ -227,7 +254,7 @@ class PoseSolver:
         psi = np.radians(np.arange(0, 360, 5.0))
         ang = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[None, :])
         cost = self._arm_cost(ang, pre, s, pref[:, None])
-        choice = viterbi(cost, psi, weight=40.0)
+        choice = viterbi(cost, psi, weight=15.0)
         best = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[choice][:, None])
         e, flex, h = (best[k][:, 0] for k in ("upper", "flex", "hand"))
         L[:, arm] = rot_axis(2, e[:, 0]) @ rot_axis(1, e[:, 1]) @ rot_axis(0, e[:, 2] / 2)
@@ -322,7 +349,7 @@ def shoulder_positions(solver: PoseSolver, hips_pos, hips_rot, chest_rot) -> np.
 
 
 def fit_torso(solver: PoseSolver, T: dict, chest_ypr: np.ndarray, env: np.ndarray,
-              lo: float = 0.45, hi: float = 0.9) -> np.ndarray:
+              lo: float = 0.52, hi: float = 0.9) -> np.ndarray:
     """Small per-frame chest yaw/pitch/roll offsets ``(F, 3)`` that keep both
     arms' shoulder-to-wrist distance inside [lo, hi] of full reach (elbows
     neither locked straight nor folded tight), found by grid search,
