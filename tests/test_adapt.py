@@ -1,0 +1,301 @@
+"""Whole-shot adaptation (engine/adapt.py), shot choice (engine/choice.py),
+ball flight (engine/ballistics.py) and `hitpoint adapt` / `hitpoint bench`."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from engine import ballistics, ccd, choice, quat
+from engine.adapt import Adapter, AdaptSettings
+from engine.library import load_library
+from test_ik import rotated_shot, synthetic_shot
+
+HITPOINT = [sys.executable, "-c", "from app.cli import main; main()"]
+
+
+@pytest.fixture(scope="module")
+def library(rig):
+    return load_library(rig=rig)
+
+
+@pytest.fixture(scope="module")
+def adapters(rig, library):
+    return {s.name: Adapter(rig, s) for s in library}
+
+
+def _grid(center, half=30.0, n=3):
+    g = np.linspace(-half, half, n)
+    return center + np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+
+
+def _same_rotation(a, b, atol=1e-9):
+    return np.allclose(np.abs(np.sum(a * b, -1)), 1.0, atol=atol)
+
+
+def _check_adaptation(rig, adapter, a, target, settings):
+    shot = adapter.shot
+    src = shot.clip.local_rotations
+    # bat joint on the desired point at the hit frame
+    assert a.bat_error_cm < 0.1
+    assert np.linalg.norm(a.global_positions[shot.hit_frame, rig.bat_joint] - target) < 0.1
+    # blend 0: exactly the source (same floats)
+    zero = a.blend == 0
+    assert np.array_equal(a.local_rotations[zero], src[zero])
+    assert np.array_equal(a.global_positions[zero], shot.fk[1][zero])
+    # legs, hips and root never touched
+    untouched = ~adapter.subtree_l
+    assert np.array_equal(a.local_rotations[:, untouched], src[:, untouched])
+    assert np.array_equal(a.root_positions, shot.clip.root_positions)
+    # limits hold (no worse than the source frame itself, joint by joint)
+    v_src = ccd.limit_violation(src, rig.limits)
+    v_new = ccd.limit_violation(a.local_rotations, rig.limits)
+    assert np.all(v_new <= v_src + 1e-6)
+    # locked DOFs never change (wrist locked by default)
+    locked = ~rig.dof_mask(settings.wrist_dof)
+    e_src = ccd.limit_euler(src, rig.limits)
+    e_new = ccd.limit_euler(a.local_rotations, rig.limits)
+    assert np.abs(e_new - e_src)[:, locked].max() < 1e-6
+    if settings.wrist_dof == 0:
+        assert _same_rotation(a.local_rotations[:, rig.wrist], src[:, rig.wrist])
+    assert np.all(np.isfinite(a.global_positions))
+
+
+def test_grid_around_every_shot(rig, library, adapters):
+    """3x3x3 targets within +-30 cm of every bundled shot's hit point."""
+    settings = AdaptSettings()
+    for shot in library:
+        ad = adapters[shot.name]
+        for t in _grid(shot.hit_point):
+            _check_adaptation(rig, ad, ad.adapt(t, settings), t, settings)
+
+
+@pytest.mark.parametrize("solver,wrist", [("dls", 0), ("ccd", 2), ("dls", 2)])
+def test_other_settings_on_a_smaller_grid(rig, library, adapters, solver, wrist):
+    settings = AdaptSettings(solver=solver, wrist_dof=wrist)
+    for shot in library[:3]:
+        ad = adapters[shot.name]
+        for t in _grid(shot.hit_point, 20.0, 2):
+            _check_adaptation(rig, ad, ad.adapt(t, settings), t, settings)
+
+
+def test_first_and_last_frames_are_the_source(rig, library, adapters):
+    for shot in library:
+        ad = adapters[shot.name]
+        d = np.linalg.norm(ad.bat_positions[[0, -1]] - ad.hit_point, axis=-1)
+        falloff = min(90.0, 0.99 * d.min())       # blend 0 at both ends
+        a = ad.adapt(shot.hit_point + np.array([-20.0, 10.0, 5.0]), AdaptSettings(falloff=falloff))
+        for f in (0, shot.num_frames - 1):
+            assert a.blend[f] == 0
+            assert np.array_equal(a.local_rotations[f], shot.clip.local_rotations[f])
+
+
+def test_source_hit_point_gives_the_source_shot(library, adapters):
+    shot = library[0]
+    a = adapters[shot.name].adapt(shot.hit_point.copy())
+    assert np.array_equal(a.local_rotations, shot.clip.local_rotations)
+
+
+def test_right_hand_back_on_its_grip(rig, library, adapters):
+    """Right hand within 0.5 cm and 5 degrees of its source grip on the left
+    hand, for hit points within 10 cm (see the report for +-30 cm)."""
+    for shot in library:
+        ad = adapters[shot.name]
+        for t in _grid(shot.hit_point, 10.0, 2):
+            a = ad.adapt(t)
+            h = shot.hit_frame
+            assert a.grip_error_cm[h] < 0.5 and a.grip_error_deg[h] < 5.0, (shot.name, t - shot.hit_point)
+
+
+def test_blend_and_handle_follow_the_dissertation(library, adapters):
+    shot = library[0]
+    ad = adapters[shot.name]
+    target = shot.hit_point + np.array([5.0, -10.0, 3.0])
+    a = ad.adapt(target, AdaptSettings(falloff=70.0))
+    grot, gpos = shot.fk
+    b = gpos[:, shot.bat_joint]
+    blend = np.clip(1 - np.linalg.norm(b - b[shot.hit_frame], axis=-1) / 70.0, 0, 1)
+    assert np.allclose(a.blend, blend)
+    off = quat.rotate(quat.conjugate(grot[shot.hit_frame, shot.bat_joint]), target - b[shot.hit_frame])
+    assert np.allclose(a.handles, b + blend[:, None] * quat.rotate(grot[:, shot.bat_joint], off))
+    assert a.blend[shot.hit_frame] == 1.0
+
+
+def test_adapt_frame_equals_the_whole_shot(library, adapters):
+    shot = library[1]
+    ad = adapters[shot.name]
+    t = shot.hit_point + np.array([8.0, 8.0, -8.0])
+    a = ad.adapt(t)
+    for f in (0, shot.hit_frame - 2, shot.hit_frame, shot.num_frames - 1):
+        loc, grot, gpos = ad.adapt_frame(f, t)
+        assert np.array_equal(loc, a.local_rotations[f])
+        assert np.array_equal(gpos, a.global_positions[f])
+
+
+@pytest.mark.parametrize("bad", [[np.nan, 0, 0], [0, np.inf, 0], [1, 2]])
+def test_bad_targets_raise(library, adapters, bad):
+    ad = adapters[library[0].name]
+    with pytest.raises(ValueError):
+        ad.adapt(bad)
+    with pytest.raises(ValueError):
+        ad.adapt_frame(0, bad)
+
+
+def test_unreachable_target_stays_finite_and_in_limits(rig, library, adapters):
+    shot = library[0]
+    a = adapters[shot.name].adapt(shot.hit_point + np.array([0.0, 400.0, 0.0]))
+    assert np.all(np.isfinite(a.local_rotations)) and a.bat_error_cm > 50
+    assert np.all(ccd.limit_violation(a.local_rotations, rig.limits)
+                  <= ccd.limit_violation(shot.clip.local_rotations, rig.limits) + 1e-6)
+
+
+def test_same_result_under_a_rotated_root(rig):
+    shot = synthetic_shot(rig)
+    turned, r = rotated_shot(shot, 57.0)
+    t = shot.hit_point + np.array([-12.0, 9.0, 7.0])
+    a = Adapter(rig, shot).adapt(t, AdaptSettings(falloff=60.0))
+    b = Adapter(rig, turned).adapt(quat.rotate(r, t), AdaptSettings(falloff=60.0))
+    assert a.bat_error_cm < 0.01 and b.bat_error_cm < 0.01
+    assert np.allclose(a.blend, b.blend)
+    assert _same_rotation(a.local_rotations[:, 1:], b.local_rotations[:, 1:], atol=1e-7)
+    assert np.allclose(quat.rotate(r, a.global_positions), b.global_positions, atol=1e-4)
+
+
+def test_synthetic_shot_ends_are_source_with_default_falloff(rig):
+    shot = synthetic_shot(rig)
+    a = Adapter(rig, shot).adapt(shot.hit_point + np.array([10.0, -10.0, 10.0]))
+    assert a.blend[0] == 0 and a.blend[-1] == 0
+    assert np.array_equal(a.local_rotations[[0, -1]], shot.clip.local_rotations[[0, -1]])
+    assert a.grip_error_cm.max() < 0.5 and a.grip_error_deg.max() < 5
+
+
+# ---------------------------------------------------------------- shot choice
+
+def test_chooser_picks_the_nearest_line():
+    start = np.array([0.0, 200.0, 1800.0])
+    target = np.array([0.0, 50.0, 0.0])
+    d = (target - start) / np.linalg.norm(target - start)
+    perp = np.cross(d, [0.0, 1.0, 0.0])
+    perp /= np.linalg.norm(perp)
+    on = start + d * 1650                          # a point on the ball's line
+    hits = np.array([on + perp * 30, on + perp * 12 + d * 40, on - perp * 20, on + [0, 25, 0]])
+    i, desired = choice.choose_shot(hits, start, target)
+    assert i == 1
+    assert np.allclose(desired, on + d * 40)       # foot of the perpendicular
+    assert abs(np.dot(desired - hits[1], d)) < 1e-9
+
+
+def test_chooser_rejects_nan_and_degenerate():
+    with pytest.raises(ValueError, match="finite"):
+        choice.choose_shot(np.zeros((2, 3)), choice.BALL_START, [np.nan, 0, 0])
+    with pytest.raises(ValueError):
+        choice.choose_shot(np.zeros((2, 3)), choice.BALL_START, choice.BALL_START)
+
+
+def test_chooser_on_the_library_uses_the_nearest_fk_hit_point(library):
+    hits = np.array([s.hit_point for s in library])
+    for k in range(len(library)):
+        # aim straight through shot k's hit point: k is chosen, desired = its hit point
+        target = choice.BALL_START + (hits[k] - choice.BALL_START) * 1.1
+        i, desired = choice.choose_shot(hits, choice.BALL_START, target)
+        assert i == k and np.allclose(desired, hits[k])
+
+
+# ---------------------------------------------------------------- ball
+
+def test_incoming_ball_reaches_the_hit_point_at_the_hit_frame():
+    p = np.array([10.0, 60.0, 150.0])
+    at = ballistics.incoming_ball(choice.BALL_START, p, 30, 30, 30.0)
+    assert np.allclose(at, p)
+    before = ballistics.incoming_ball(choice.BALL_START, p, 30, 29, 30.0)
+    assert np.linalg.norm(before - p) == pytest.approx(ballistics.BALL_SPEED / 30.0)
+    with pytest.raises(ValueError):
+        ballistics.incoming_ball([np.nan, 0, 0], p, 30, 0, 30.0)
+
+
+def test_ball_bounces_and_stays_above_ground():
+    path = ballistics.fly([0, 50, 0], [500, 300, -1000], duration=3.0)
+    assert np.all(path[:, 1] >= 3.6 - 1e-9)
+    assert np.all(np.isfinite(path))
+    low = np.nonzero(path[:, 1] < 4.0)[0]
+    assert len(low) and path[low[0]:, 1].max() > 5.0     # it came up again
+
+
+def test_outgoing_velocity_reflects_on_a_still_bat():
+    v = ballistics.outgoing_velocity([0, 0, 1], [0, 0, -1000], [0, 0, 0], e_bat=0.5)
+    assert np.allclose(v, [0, 0, 500])
+
+
+def _ball_direction(rig, shot, a):
+    path = ballistics.ball_after_impact(a.global_rotations, a.global_positions, rig.bat_joint,
+                                        rig.wrist, rig.bat["face_normal"], shot.hit_frame,
+                                        shot.clip.fps, choice.BALL_START, a.desired_hit_point)
+    return path[min(30, len(path) - 1)] - path[0]
+
+
+def test_moving_the_hit_point_left_sends_the_ball_further_left(rig, library, adapters):
+    """Figure 2.6 with the wrist locked: the same shot, hit point moved across
+    the ball's line, the ball's direction moves the same way."""
+    shot = next(s for s in library if s.name == "forward_defence") if any(
+        s.name == "forward_defence" for s in library) else library[0]
+    ad = adapters[shot.name]
+    side = np.array([-1.0, 0.0, 0.0])               # off side, towards the batsman's front
+    xs = []
+    for k in (-10.0, 0.0, 10.0):
+        a = ad.adapt(shot.hit_point + k * side)
+        xs.append(_ball_direction(rig, shot, a) @ side)
+    assert xs[0] < xs[1] < xs[2]
+
+
+# ---------------------------------------------------------------- CLI
+
+def _run(*args):
+    return subprocess.run(HITPOINT + ["adapt", *args], capture_output=True, text=True, timeout=120)
+
+
+def test_cli_adapt_json_and_outputs(tmp_path, library):
+    shot = library[0]
+    x, y, z = (shot.hit_point + [5, 5, 0]).tolist()
+    out = tmp_path / "a.bvh"
+    r = _run("--shot", shot.name, "--hit", str(x), str(y), str(z), "--solver", "dls", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    res = json.loads(r.stdout)
+    for key in ("shot", "hit_frame", "source_hit_point", "desired_hit_point", "bat_error_cm", "blend",
+                "grip_error_cm", "grip_error_deg", "solve_ms"):
+        assert key in res
+    assert res["shot"] == shot.name and res["bat_error_cm"] < 0.1
+    assert len(res["blend"]) == shot.num_frames
+    from engine import bvh
+    skel, clip = bvh.read(out)
+    assert clip.num_frames == shot.num_frames
+    csv = tmp_path / "a.csv"
+    r = _run("--target", "0", "40", "0", "--out", str(csv), "--falloff", "80", "--wrist-dof", "2")
+    assert r.returncode == 0, r.stderr
+    assert len(csv.read_text().splitlines()) == json.loads(r.stdout)["frames"] + 1
+
+
+@pytest.mark.parametrize("args", [
+    ["--target", "0", "nan", "0"], ["--shot", "no_such_shot", "--hit", "1", "2", "3"],
+    ["--target", "1", "2"], ["--target", "1", "2", "3", "--out", "x.txt"],
+    ["--solver", "fabrik", "--target", "1", "2", "3"], ["--wrist-dof", "1", "--target", "1", "2", "3"],
+    ["--shot", "x"], [], ["--falloff", "-3", "--target", "1", "2", "3"],
+])
+def test_cli_adapt_bad_input_is_one_line_exit_2(tmp_path, args):
+    r = subprocess.run(HITPOINT + ["adapt", *args], capture_output=True, text=True, timeout=120,
+                       cwd=tmp_path)
+    assert r.returncode == 2
+    assert r.stderr.startswith("error:") and len(r.stderr.strip().splitlines()) == 1
+    assert r.stdout == ""
+    assert not (tmp_path / "x.txt").exists()
+
+
+def test_cli_bench_json():
+    r = subprocess.run(HITPOINT + ["bench", "--json", "--reps", "10"], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    res = json.loads(r.stdout)
+    for key in ("one_frame_both_arms_us", "whole_shot_ms", "skinning_one_frame_us", "ours_left_arm_us"):
+        assert res[key]["median"] > 0 and res[key]["p95"] >= res[key]["median"]
+    if res.get("ikpy_left_arm_ms"):
+        assert res["ikpy_over_ours"] > 0
