@@ -55,20 +55,21 @@ def envelope(n: int, ramp: int = 8) -> np.ndarray:
     return x
 
 
-def unfold(solver, T, times, d_min: float = 27.0) -> np.ndarray:
-    """Grip offsets ``(F, 3)`` pushing each wrist out to ``d_min`` from its shoulder."""
+def unfold(solver, T, times, d_min: float = 27.0, d_max: float = 48.0) -> np.ndarray:
+    """Grip offsets ``(F, 3)`` keeping each wrist between ``d_min`` and ``d_max``
+    from its shoulder (full reach is 54 cm)."""
     sh = shoulder_positions(solver, T["hips_pos"], T["hips_rot"], T["chest_rot"])
     l_wrist, _, r_wrist, _ = solver.hand_targets(T["grip"], T["bat_rot"])
     push = np.zeros_like(l_wrist)
     for k, w in ((0, l_wrist), (1, r_wrist)):
         v = w - sh[:, k]
         dist = np.linalg.norm(v, axis=-1, keepdims=True)
-        push += np.maximum(0.0, d_min - dist) * v / np.maximum(dist, 1e-9)
+        push += (np.maximum(0.0, d_min - dist) - np.maximum(0.0, dist - d_max)) * v / np.maximum(dist, 1e-9)
     k = np.exp(-0.5 * (np.arange(-8, 9) / 2.5) ** 2)
     pad = np.pad(push, ((8, 8), (0, 0)), mode="edge")
     smooth = np.stack([np.convolve(pad[:, i], k, "valid") for i in range(3)], -1)
     # the stroke's contact is never moved
-    return 1.6 * smooth * (1.0 - np.exp(-0.5 * (times / 0.1) ** 2))[:, None] * envelope(len(times), 6)[:, None]
+    return 0.8 * smooth * (1.0 - np.exp(-0.5 * (times / 0.1) ** 2))[:, None] * envelope(len(times), 6)[:, None]
 
 
 def build(name: str, rig=None, noise: bool = True):
@@ -90,9 +91,10 @@ def build(name: str, rig=None, noise: bool = True):
     # lean the chest where the keyed torso would leave an arm locked or folded
     tr["chest_ypr"] = tr["chest_ypr"] + fit_torso(solver, T, tr["chest_ypr"], envelope(len(times), 4))
     T = targets(tr)
-    # never fold an elbow shut: where a hand comes within 27 cm of its
-    # shoulder (elbow past ~135 degrees), carry the bat out of the way
-    for _ in range(3):
+    # never fold an elbow shut nor pull an arm out of its socket: where a
+    # hand comes within 27 cm of its shoulder (elbow past ~135 degrees) or
+    # beyond 48 cm (of 54), carry the bat to where the arms can hold it
+    for _ in range(8):
         tr["grip"] = tr["grip"] + unfold(solver, T, times)
         T = targets(tr)
     # the face may turn about the bat's axis except near impact and at the
