@@ -47,6 +47,8 @@ _drop_stale_numba_cache("dls", ("ccd.py",))
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
+GRIP_CM = 0.05          # right hand further than this from its grip ...
+GRIP_RAD = math.radians(0.5)  # ... or turned more than this: solve both arms together
 SOLVERS = ("ccd", "dls")
 
 
@@ -278,6 +280,223 @@ def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_
 
 
 @njit(cache=True)
+def _solve_spd(A, r, x, R):
+    """Solve A x = r for a symmetric positive definite R x R matrix (A is overwritten)."""
+    for i in range(R):
+        for j in range(i + 1):
+            t = A[i, j]
+            for k in range(j):
+                t -= A[i, k] * A[j, k]
+            if i == j:
+                A[i, i] = math.sqrt(max(t, 1e-300))
+            else:
+                A[i, j] = t / A[j, j]
+    for i in range(R):
+        t = r[i]
+        for k in range(i):
+            t -= A[i, k] * x[k]
+        x[i] = t / A[i, i]
+    for i in range(R - 1, -1, -1):
+        t = x[i]
+        for k in range(i + 1, R):
+            t -= A[k, i] * x[k]
+        x[i] = t / A[i, i]
+
+
+@njit(cache=True)
+def _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff, loc_r,
+                   gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, length, r):
+    """FK of both arms and the 9-residual (bat, grip position, grip rotation);
+    returns (bat, right hand, grip target position, its norm)."""
+    nl = l_off.shape[0]
+    nr = r_off.shape[0]
+    bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
+    rh = chain_fk(_q_at(gl_rot, rp), _v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
+    g_lh = _q_at(gl_rot, nl - 1)
+    t_pos = vadd(_v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
+    t_rot = qmul(g_lh, rel_q)
+    for i in range(3):
+        r[i] = bat_w * (handle[i] - bat[i])
+    tmp = np.empty(6)
+    _grip_residual(rh, _q_at(gr_rot, nr - 1), t_pos, t_rot, length, tmp)
+    for i in range(6):
+        r[3 + i] = tmp[i]
+    t = 0.0
+    for i in range(9):
+        t += r[i] * r[i]
+    return t_pos, math.sqrt(t)
+
+
+@njit(cache=True)
+def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                    r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, rel_p, rel_q,
+                    tol, ori_tol, max_iter):
+    """Damped Newton on both arm chains at once: the bat on its handle AND the
+    right hand on its grip (the torso joints shared by both chains can then
+    lean to give the right arm its reach). Used when the right arm alone cannot
+    get back to the grip."""
+    nl = l_off.shape[0]
+    nr = r_off.shape[0]
+    M = 3 * (nl + nr)
+    gl_rot = np.empty((nl, 4))
+    gl_pos = np.empty((nl, 3))
+    gr_rot = np.empty((nr, 4))
+    gr_pos = np.empty((nr, 3))
+    cols = np.empty((M, 9))
+    dofs = np.empty((M, 3), np.int64)
+    A = np.empty((9, 9))
+    x = np.empty(9)
+    r = np.empty(9)
+    bl = np.empty((nl, 4))
+    be = np.empty((nl, 3))
+    br = np.empty((nr, 4))
+    bre = np.empty((nr, 3))
+    bat_w = 10.0        # the bat on the ball matters most
+    L = GRIP_LENGTH
+    t_pos, res = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff,
+                                loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+    lam = 0.5
+    for _ in range(max_iter):
+        bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / bat_w
+        pos_e = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
+        ori_e = math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / L
+        if bat_e < tol and pos_e < tol and ori_e < ori_tol:
+            break
+        bl[:] = loc_l
+        be[:] = eul_l
+        br[:] = loc_r
+        bre[:] = eul_r
+        bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
+        rh = _v_at(gr_pos, nr - 1)
+        rv = (r[6] / L, r[7] / L, r[8] / L)
+        rpos = (r[3], r[4], r[5])
+        m = 0
+        for k in range(nl):
+            for c in range(3):
+                if not l_free[k, c]:
+                    continue
+                a = hinge_axis(prot, gl_rot, eul_l, k, c)
+                pk = _v_at(gl_pos, k)
+                cb = cross(a, vsub(bat, pk))
+                if k <= rp:     # turns the right arm and its target together
+                    cg = cross(a, rpos)
+                    co = cross(a, rv)
+                    cg = (-cg[0], -cg[1], -cg[2])
+                    co = (-L * co[0], -L * co[1], -L * co[2])
+                else:           # turns the left hand (the target) only
+                    cg = cross(a, vsub(t_pos, pk))
+                    cg = (-cg[0], -cg[1], -cg[2])
+                    co = (-L * a[0], -L * a[1], -L * a[2])
+                for i in range(3):
+                    cols[m, i] = bat_w * cb[i]
+                    cols[m, 3 + i] = cg[i]
+                    cols[m, 6 + i] = co[i]
+                dofs[m, 0] = 0
+                dofs[m, 1] = k
+                dofs[m, 2] = c
+                m += 1
+        pr = _q_at(gl_rot, rp)
+        for k in range(nr):
+            for c in range(3):
+                if not r_free[k, c]:
+                    continue
+                a = hinge_axis(pr, gr_rot, eul_r, k, c)
+                cg = cross(a, vsub(rh, _v_at(gr_pos, k)))
+                for i in range(3):
+                    cols[m, i] = 0.0
+                    cols[m, 3 + i] = cg[i]
+                    cols[m, 6 + i] = L * a[i]
+                dofs[m, 0] = 1
+                dofs[m, 1] = k
+                dofs[m, 2] = c
+                m += 1
+        for _round in range(3):
+            for i in range(9):
+                for j in range(9):
+                    A[i, j] = lam * lam if i == j else 0.0
+            for q in range(m):
+                if dofs[q, 0] < 0:
+                    continue
+                for i in range(9):
+                    ci = cols[q, i]
+                    if ci != 0.0:
+                        for j in range(9):
+                            A[i, j] += ci * cols[q, j]
+            _solve_spd(A, r, x, 9)
+            biggest = 0.0
+            for q in range(m):
+                if dofs[q, 0] >= 0:
+                    d = 0.0
+                    for i in range(9):
+                        d += cols[q, i] * x[i]
+                    biggest = max(biggest, abs(d))
+            scale = 1.0 if biggest <= 0.25 else 0.25 / biggest
+            clamped = False
+            for q in range(m):
+                if dofs[q, 0] < 0:
+                    continue
+                d = 0.0
+                for i in range(9):
+                    d += cols[q, i] * x[i]
+                k = dofs[q, 1]
+                c = dofs[q, 2]
+                if dofs[q, 0] == 0:
+                    want = eul_l[k, c] + d * scale
+                    got = clamp_angle(want, lo_l[k, c], hi_l[k, c])
+                    if got != want:
+                        gd = got - eul_l[k, c]
+                        eul_l[k, c] = got
+                else:
+                    want = eul_r[k, c] + d * scale
+                    got = clamp_angle(want, lo_r[k, c], hi_r[k, c])
+                    if got != want:
+                        gd = got - eul_r[k, c]
+                        eul_r[k, c] = got
+                if got != want:
+                    for i in range(9):
+                        r[i] -= cols[q, i] * gd
+                    dofs[q, 0] = -1
+                    clamped = True
+            if not clamped:
+                for q in range(m):
+                    if dofs[q, 0] < 0:
+                        continue
+                    d = 0.0
+                    for i in range(9):
+                        d += cols[q, i] * x[i]
+                    if dofs[q, 0] == 0:
+                        eul_l[dofs[q, 1], dofs[q, 2]] += d * scale
+                    else:
+                        eul_r[dofs[q, 1], dofs[q, 2]] += d * scale
+                break
+        for k in range(nl):
+            if l_free[k, 0] or l_free[k, 1] or l_free[k, 2]:
+                _q_put(loc_l, k, from_euler_zyx(eul_l[k, 0], eul_l[k, 1], eul_l[k, 2]))
+        for k in range(nr):
+            if r_free[k, 0] or r_free[k, 1] or r_free[k, 2]:
+                _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+        t_pos2, res2 = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
+                                      r_eoff, loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+        if not res2 < res:
+            loc_l[:] = bl
+            eul_l[:] = be
+            loc_r[:] = br
+            eul_r[:] = bre
+            t_pos, res = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
+                                        r_eoff, loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+            lam *= 4.0
+            if lam > 1e4:
+                break
+            continue
+        gain = res - res2
+        t_pos = t_pos2
+        res = res2
+        lam = max(0.05, lam * 0.5)
+        if gain < 1e-3 * res:
+            break
+
+
+@njit(cache=True)
 def dot3(u, v):
     return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
 
@@ -329,7 +548,7 @@ def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_
                   src_euler, subtree_l, subtree_r, bat, lhand,
                   lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
                   rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w,
-                  rel_pos, rel_rot, fix_right, solver, tol, max_iter, damping, ori_tol,
+                  rel_pos, rel_rot, rp, fix_right, solver, tol, max_iter, damping, ori_tol,
                   out_local, out_grot, out_gpos, out_blend, out_handle, out_err, out_gcm, out_gdeg):
     """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1."""
     nl = lj.shape[0]
@@ -424,12 +643,51 @@ def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_
                                    lo_r, hi_r, t_rot, g_rot, g_pos, 8, ori_tol)
                 eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
                 if vnorm(vsub(eff, t_pos)) >= tol or oe >= ori_tol:
-                    grip_solve(prot, ppos, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                               tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+                    pe, oe = grip_solve(prot, ppos, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos,
+                                        t_rot, tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6,
+                                        bak_l, bak_e)
+                    if (pe > GRIP_CM or oe > GRIP_RAD) and rp >= 0:
+                        # out of the right arm's reach: let the torso help
+                        pj = parents[lj[0]]
+                        both_arms_solve((src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2],
+                                         src_grot[f, pj, 3]),
+                                        (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2]),
+                                        l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                                        r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle,
+                                        (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2]),
+                                        (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]),
+                                        tol, ori_tol, 40)
+                        prl = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
+                        ppl = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
+                        b2 = chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
+                        if vnorm(vsub(b2, handle)) >= tol:
+                            # the bat gave way to the grip: put it back, then the right arm again
+                            _solve_chain(solver, prl, ppl, l_off, l_eoff, loc_l, eul_l, src_l, l_free,
+                                         l_kind, lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot,
+                                         g_pos, cols, dofs, bak_l, bak_e)
+                            chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
+                            pr2 = (g_rot[rp, 0], g_rot[rp, 1], g_rot[rp, 2], g_rot[rp, 3])
+                            pp2 = (g_pos[rp, 0], g_pos[rp, 1], g_pos[rp, 2])
+                            lh2 = (g_rot[nl - 1, 0], g_rot[nl - 1, 1], g_rot[nl - 1, 2], g_rot[nl - 1, 3])
+                            tp2 = vadd((g_pos[nl - 1, 0], g_pos[nl - 1, 1], g_pos[nl - 1, 2]),
+                                       qrot(lh2, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
+                            tr2 = qmul(lh2, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
+                            grip_solve(pr2, pp2, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, tp2, tr2,
+                                       tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+                        for k in range(nl):
+                            for c in range(4):
+                                out_local[i, lj[k], c] = loc_l[k, c]
                 for k in range(nr):
                     for c in range(4):
                         out_local[i, rj[k], c] = loc_r[k, c]
-                _fk_subtree(i, f, parents, trans, subtree_r, out_local, out_grot, out_gpos)
+                _fk_subtree(i, f, parents, trans, subtree_l, out_local, out_grot, out_gpos)
+                bpos = (out_gpos[i, bat, 0], out_gpos[i, bat, 1], out_gpos[i, bat, 2])
+                out_err[i] = vnorm(vsub(bpos, handle))
+                g_lh = (out_grot[i, lhand, 0], out_grot[i, lhand, 1], out_grot[i, lhand, 2],
+                        out_grot[i, lhand, 3])
+                p_lh = (out_gpos[i, lhand, 0], out_gpos[i, lhand, 1], out_gpos[i, lhand, 2])
+                t_pos = vadd(p_lh, qrot(g_lh, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
+                t_rot = qmul(g_lh, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
         g_rh = (out_grot[i, rh, 0], out_grot[i, rh, 1], out_grot[i, rh, 2], out_grot[i, rh, 3])
         p_rh = (out_gpos[i, rh, 0], out_gpos[i, rh, 1], out_gpos[i, rh, 2])
         out_gcm[i] = vnorm(vsub(p_rh, t_pos))
@@ -512,6 +770,9 @@ class Adapter:
         self.rel_rot = np.ascontiguousarray(quat.mul(inv, g_rh))
         self.rel_pos = np.ascontiguousarray(quat.rotate(inv, self.src_gpos[:, self.rhand] - self.src_gpos[:, self.lhand]))
         self._chains: dict[tuple, tuple] = {}
+        # where the right arm hangs off the left-arm chain (Spine2), for the two-arm solve
+        rpar = int(self.parents[right.joints[0]])
+        self.right_parent_in_left = list(left.joints).index(rpar) if rpar in list(left.joints) else -1
         self.hit_point = self.src_gpos[self.hit_frame, self.bat].copy()
         self.bat_positions = self.src_gpos[:, self.bat]
 
@@ -543,7 +804,7 @@ class Adapter:
                       self.src_local, self.src_grot, self.src_gpos, self.src_euler,
                       self.subtree_l, self.subtree_r, self.bat, self.lhand,
                       *self._chain_args(settings),
-                      self.rel_pos, self.rel_rot, bool(settings.fix_right_hand),
+                      self.rel_pos, self.rel_rot, self.right_parent_in_left, bool(settings.fix_right_hand),
                       SOLVERS.index(settings.solver), float(settings.tolerance), int(settings.iterations),
                       DAMPING, ORIENT_TOL, *out)
         return out, p

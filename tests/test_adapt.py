@@ -99,13 +99,19 @@ def test_source_hit_point_gives_the_source_shot(library, adapters):
 
 def test_right_hand_back_on_its_grip(rig, library, adapters):
     """Right hand within 0.5 cm and 5 degrees of its source grip on the left
-    hand, for hit points within 10 cm (see the report for +-30 cm)."""
+    hand on every frame, for hit points within 15 cm; at +-30 cm nearly always
+    (a few corners are out of the right arm's reach within its limits)."""
+    misses = total = 0
     for shot in library:
         ad = adapters[shot.name]
-        for t in _grid(shot.hit_point, 10.0, 2):
+        for t in _grid(shot.hit_point, 15.0):
             a = ad.adapt(t)
-            h = shot.hit_frame
-            assert a.grip_error_cm[h] < 0.5 and a.grip_error_deg[h] < 5.0, (shot.name, t - shot.hit_point)
+            assert a.grip_error_cm.max() < 0.5 and a.grip_error_deg.max() < 5.0, (shot.name, t - shot.hit_point)
+        for t in _grid(shot.hit_point, 30.0):
+            a = ad.adapt(t)
+            total += 1
+            misses += a.grip_error_cm.max() >= 0.5 or a.grip_error_deg.max() >= 5.0
+    assert misses <= 0.05 * total
 
 
 def test_blend_and_handle_follow_the_dissertation(library, adapters):
