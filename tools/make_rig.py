@@ -42,7 +42,7 @@ def side(prefix, s):
         joint(f"{L}ArmRoll", f"{L}Arm", [14.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 90])),
         joint(f"{L}ForeArm", f"{L}ArmRoll", [14.0 * s, 0.0, 0.0], "y", lim(None, [-150, 0], None)),
         joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-130, 130])),
-        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-90, 90], [-70, 55], None),
+        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-90, 90], [-75, 55], None),
               end=[9.0 * s, 0.0, 0.0]),
     ]
 

@@ -202,6 +202,7 @@ class PoseSolver:
                                        g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
                 costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None]).min(1)
         costs += T["roll_weight"][:, None] * (self.ROLLS / 20.0) ** 2
+        costs[[0, -1]] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
         return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0)]
 
     def _leg(self, L, g_rot, g_pos, T, side, pre):
@@ -308,6 +309,13 @@ def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float) -> np.ndarray:
     """Cheapest path of indices ``(F,)`` through ``cost (F, K)`` with a
     ``weight * (circular angle step in radians)^2`` charge between frames."""
     F, K = cost.shape
+    # the first and last frames are shared by every shot: pin them to their
+    # own best choice so the path cannot make them differ between shots
+    cost = cost.copy()
+    for f in (0, F - 1):
+        keep = np.argmin(cost[f])
+        cost[f] = np.inf
+        cost[f, keep] = 0.0
     step = np.abs(np.angle(np.exp(1j * (psi[:, None] - psi[None, :]))))
     trans = weight * step ** 2
     acc = cost[0].copy()
