@@ -34,6 +34,7 @@ TOLERANCE = 0.001      # cm
 ITERATIONS = 200
 _TINY = 1e-9           # cm: a lever shorter than this cannot move the effector
 _STALL = 1e-7          # cm per sweep: slower progress than this means "as close as it gets"
+_STALL_REL = 1e-3      # ... or a sweep that gains less than this share of the error
 
 
 # --------------------------------------------------------------------------
@@ -486,8 +487,8 @@ def ccd_frame(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind,
                               bak_local, bak_euler)
             if err < tol:
                 break
-        if start_err - err < _STALL:
-            break
+        if start_err - err < max(_STALL, _STALL_REL * err):
+            break       # as close as this pose gets (unreachable, or held by limits)
     return err, it
 
 

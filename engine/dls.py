@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .ccd import (ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, chain_fk,
+from .ccd import (ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, chain_fk,
                   jacobian_step, limit_euler, vnorm, vsub)
 
 DAMPING = 1.0           # cm
@@ -55,7 +55,7 @@ def dls_frame(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, 
         eff = eff2
         err = err2
         lam = max(damping, lam * 0.5)
-        if err < tol or gain < _STALL:
+        if err < tol or gain < max(_STALL, _STALL_REL * err):
             break
     return err, it
 
