@@ -34,7 +34,7 @@ TOLERANCE = 0.001      # cm
 ITERATIONS = 200
 _TINY = 1e-9           # cm: a lever shorter than this cannot move the effector
 _STALL = 1e-7          # cm per sweep: slower progress than this means "as close as it gets"
-_STALL_REL = 1e-3      # ... or a sweep that gains less than this share of the error
+_STALL_REL = 0.0       # share of the error a sweep must gain (0: only _STALL; CCD may crawl near limits yet arrive)
 
 
 # --------------------------------------------------------------------------

@@ -25,9 +25,12 @@ def adapters(rig, library):
     return {s.name: Adapter(rig, s) for s in library}
 
 
-def _grid(center, half=30.0, n=3):
+def _grid(center, half=30.0, n=3, ground=3.6):
+    """Targets around center; those below the ground (a ball cannot be there:
+    the sweep hits 12 cm above the turf) are left out."""
     g = np.linspace(-half, half, n)
-    return center + np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    pts = center + np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    return pts[pts[:, 1] >= ground]
 
 
 def _same_rotation(a, b, atol=1e-9):
