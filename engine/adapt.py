@@ -776,6 +776,13 @@ class Adapter:
         self.hit_point = self.src_gpos[self.hit_frame, self.bat].copy()
         self.bat_positions = self.src_gpos[:, self.bat]
 
+    @property
+    def max_falloff(self) -> float:
+        """Largest falloff (cm) that keeps the first and last frames fully FK
+        (dissertation 2.2.5: the bat's distance from the hit point there)."""
+        d = np.linalg.norm(self.bat_positions[[0, -1]] - self.hit_point, axis=-1)
+        return float(d.min())
+
     def blend(self, falloff: float) -> np.ndarray:
         """Importance blend (F,) for a falloff in cm (2.2.5)."""
         d = np.linalg.norm(self.bat_positions - self.hit_point, axis=-1)
