@@ -25,6 +25,7 @@ def register(cli: typer.Typer) -> None:
         offsets: str = typer.Option("15,30", "--offsets", help="--style: hit-point offsets in cm, applied off/leg/up/down."),
         falloff: float = typer.Option(90.0, "--falloff", help="--style: importance falloff (cm)."),
         solver: str = typer.Option("ccd", "--solver", help="--style: ccd or dls."),
+        pcs: int = typer.Option(3, "--pcs", min=1, help="--style: PCs of the source the adapted shot is compared in (2.5.5 uses 3)."),
         strip: Path = typer.Option(None, "--components-strip", help="Write a PNG of poses along PC1..3 from -3 to +3 SD (Figure 3.2)."),
         part: str = typer.Option("upper", "--part", help="--components-strip: upper (as in Figure 3.2) or body."),
         multi: bool = typer.Option(False, "--multi", help="The 'batting space' of all shots together (4.2): variance of 2 and 3 PCs."),
@@ -46,7 +47,7 @@ def register(cli: typer.Typer) -> None:
         if shot:
             shots = [find_shot(shots, n) for n in shot]
         if style:
-            print(json.dumps(style_report(rig, shots, _parse_offsets(offsets), falloff, solver), indent=1))
+            print(json.dumps(style_report(rig, shots, _parse_offsets(offsets), falloff, solver, pcs), indent=1))
             return
         if strip is not None:
             if part not in PARTS:
@@ -129,9 +130,10 @@ def _parse_offsets(text: str) -> list[float]:
 DIRECTIONS = {"off": (-1.0, 0.0, 0.0), "leg": (1.0, 0.0, 0.0), "up": (0.0, 1.0, 0.0), "down": (0.0, -1.0, 0.0)}
 
 
-def style_report(rig, shots, offsets: list[float], falloff: float, solver: str) -> dict:
+def style_report(rig, shots, offsets: list[float], falloff: float, solver: str, pcs: int = 3) -> dict:
     """Style RMSE (2.5.5) of every shot adapted to hit points around its own, with
-    the left wrist at 0 and at 2 DOF; upper-body and whole-body PC spaces."""
+    the left wrist at 0 and at 2 DOF; upper-body and whole-body PC spaces, the
+    first ``pcs`` components of the source."""
     try:
         from engine.adapt import AdaptSettings, Adapter
     except ImportError:
@@ -150,7 +152,7 @@ def style_report(rig, shots, offsets: list[float], falloff: float, solver: str) 
                 for dof in (0, 2):
                     a = adapter.adapt(s.hit_point + d, AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver))
                     for p in PARTS:
-                        e = pcam.style_error(spaces[p], a.root_positions, a.local_rotations, 3)
+                        e = pcam.style_error(spaces[p], a.root_positions, a.local_rotations, pcs)
                         entry[f"{p}_dof{dof}"] = round(e, 4)
                         all_rmse[(p, dof)].append(e)
                     entry[f"bat_error_cm_dof{dof}"] = round(float(a.bat_error_cm), 3)
@@ -174,10 +176,10 @@ def style_report(rig, shots, offsets: list[float], falloff: float, solver: str) 
                       "difference_percent": round(100 * (r2 - r0) / r0, 1) if r0 > 0 else None,
                       "shots_dof0_better": int(sum(r[p]["dof0_better"] for r in results))}
     return {
-        "method": "project each adapted shot into its source's first 3 PCs; RMSE over frames of "
+        "method": f"project each adapted shot into its source's first {pcs} PCs; RMSE over frames of "
                   "the Euclidean score distance; per shot and overall the quadratic mean over offsets",
         "offsets_cm": offsets, "directions": list(DIRECTIONS),
-        "settings": {"falloff": falloff, "solver": solver},
+        "settings": {"falloff": falloff, "solver": solver, "pcs": pcs},
         "dissertation": DISSERTATION,
         "overall": overall,
         "agrees_with_dissertation": overall["upper"]["dof0_better"],
