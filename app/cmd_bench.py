@@ -93,6 +93,15 @@ def run_bench(reps: int = 200) -> dict:
            "targets": "hit point + uniform(-20, 20) cm"}
     res["one_frame_both_arms_us"] = _stats(_time(one_frame, reps), 1e6)
     res["whole_shot_ms"] = _stats(_time(whole_shot, max(reps // 4, 20)), 1e3)
+    # every bundled shot, whole shot adapted: the slowest shot's figures
+    worst = None
+    for other in load_library(rig=rig):
+        ad = Adapter(rig, other)
+        tg = other.hit_point + rng.uniform(-20, 20, size=(8, 3))
+        st = _stats(_time(lambda: ad.adapt(tg[next(it) % len(tg)], settings), max(reps // 10, 10)), 1e3)
+        if worst is None or st["median"] > worst["median"]:
+            worst = dict(st, shot=other.name, frames=other.num_frames)
+    res["whole_shot_ms_slowest_shot"] = worst
     grot, gpos = shot.fk
     bind = bind_positions(rig.skeleton)
     res["skinning_one_frame_us"] = _stats(_time(lambda: skinning_matrices(grot[h], gpos[h], bind), reps), 1e6)
