@@ -109,15 +109,34 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
     except ImportError:
         solve_chain_position(rig, skeleton, clip, chain.joints, hand, t_pos, g_rot, g_pos,
                              iterations, tolerance)
-    # orientation: the hand's local rotation that gives the target, within its limits
-    g_rot, g_pos = clip_fk(skeleton, clip)
-    parent = skeleton.parents[hand]
-    local = quat.mul(quat.conjugate(g_rot[:, parent]), t_rot)
-    clip.local_rotations[:, hand] = _constrain(rig, hand, local, clip.local_rotations[:, hand])
+    orient_hand(rig, skeleton, clip, hand, t_rot)
     g_rot, g_pos = clip_fk(skeleton, clip)
     err_cm = np.linalg.norm(g_pos[:, hand] - t_pos, axis=-1)
     err_deg = quat.angle_between(g_rot[:, hand], t_rot)
     return err_cm, err_deg
+
+
+def orient_hand(rig: Rig, skeleton: Skeleton, clip: Clip, hand: int, target_rot: np.ndarray) -> None:
+    """Turn ``hand`` to ``target_rot (F, 4)`` without moving it: the twist about
+    the forearm (local x, along the bone) goes to the roll joint above the hand
+    when it has that one DOF, the swing to the hand; both within their limits."""
+    g_rot, _ = clip_fk(skeleton, clip)
+    roll = int(skeleton.parents[hand])
+    local = quat.mul(quat.conjugate(g_rot[:, roll]), target_rot)      # hand local if it did it all
+    bone = skeleton.offsets[hand]
+    twist_axis = int(np.argmax(np.abs(bone)))
+    if rig.dof[roll].sum() == 1 and rig.dof[roll, 2 - twist_axis] and \
+            np.allclose(np.delete(bone, twist_axis), 0):
+        # q = twist * swing, twist about the bone axis: the roll joint takes the twist
+        t = np.zeros_like(local)
+        t[:, 0] = local[:, 0]
+        t[:, 1 + twist_axis] = local[:, 1 + twist_axis]
+        t = quat.normalize(t)
+        old = clip.local_rotations[:, roll].copy()
+        clip.local_rotations[:, roll] = _constrain(rig, roll, quat.mul(old, t), old)
+        applied = quat.mul(quat.conjugate(old), clip.local_rotations[:, roll])
+        local = quat.mul(quat.conjugate(applied), local)
+    clip.local_rotations[:, hand] = _constrain(rig, hand, local, clip.local_rotations[:, hand])
 
 
 def _euler_in_limits(local: np.ndarray, limits: np.ndarray) -> np.ndarray:
