@@ -110,10 +110,78 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
         solve_chain_position(rig, skeleton, clip, chain.joints, hand, t_pos, g_rot, g_pos,
                              iterations, tolerance)
     orient_hand(rig, skeleton, clip, hand, t_rot)
+    grip_polish(rig, skeleton, clip, chain.joints, hand, t_pos, t_rot)
     g_rot, g_pos = clip_fk(skeleton, clip)
     err_cm = np.linalg.norm(g_pos[:, hand] - t_pos, axis=-1)
     err_deg = quat.angle_between(g_rot[:, hand], t_rot)
     return err_cm, err_deg
+
+
+GRIP_LENGTH = 10.0     # cm per radian: weighs the hand's orientation against its position
+
+
+def grip_polish(rig: Rig, skeleton: Skeleton, clip: Clip, joints: list[int], hand: int,
+                target_pos: np.ndarray, target_rot: np.ndarray, iterations: int = 20) -> None:
+    """Damped least squares on the hand's position and orientation together,
+    over the chain's free Euler angles, every frame at once (numeric Jacobian),
+    in place. Each frame keeps a step only if it lowers its residual; limits
+    (widened to the start pose) hold."""
+    F = clip.num_frames
+    joints = [j for j in joints if rig.dof[j].any()]
+    t = local_translations(skeleton, clip)
+    path = skeleton.chain(skeleton.names[joints[0]], skeleton.names[hand])
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    top = skeleton.parents[path[0]]
+    base_rot, base_pos = g_rot[:, top], g_pos[:, top]
+    local = clip.local_rotations
+    euler = {j: _euler_in_limits(local[:, j], rig.limits[j]) for j in joints}
+    cols = [(j, c) for j in joints for c in range(3) if rig.dof[j, c]]
+    lo = np.array([min(rig.limits[j, c, 0], euler[j][:, c].min()) for j, c in cols])
+    hi = np.array([max(rig.limits[j, c, 1], euler[j][:, c].max()) for j, c in cols])
+    x = np.stack([euler[j][:, c] for j, c in cols], axis=1)          # (F, n) degrees
+
+    def residual(x):
+        rots = dict()
+        for j in joints:
+            e = euler[j].copy()
+            for k, (jj, c) in enumerate(cols):
+                if jj == j:
+                    e[:, c] = x[:, k]
+            rots[j] = quat.from_euler(e, "ZYX")
+        r, p = base_rot, base_pos
+        for j in path:
+            p = p + quat.rotate(r, t[:, j])
+            r = quat.mul(r, rots.get(j, local[:, j]))
+        rv = quat.log(quat.mul(target_rot, quat.conjugate(r)))
+        return np.concatenate([target_pos - p, GRIP_LENGTH * rv], axis=1), rots
+
+    res, _ = residual(x)
+    cost = np.sum(res ** 2, axis=1)
+    lam = np.full(F, 1.0)
+    h = 0.05                                                         # degrees
+    n = x.shape[1]
+    for _ in range(iterations):
+        Jac = np.empty((F, 6, n))
+        for k in range(n):
+            xk = x.copy()
+            xk[:, k] += h
+            Jac[:, :, k] = (residual(xk)[0] - res) / np.radians(h)
+        # Jac is d(target - effector)/dx, so the step that lowers the residual is -dx
+        A = np.einsum("fik,fil->fkl", Jac, Jac) + (lam ** 2)[:, None, None] * np.eye(n)
+        step = -np.linalg.solve(A, np.einsum("fik,fi->fk", Jac, res)[..., None])[..., 0]
+        x_new = np.clip(x + np.degrees(step), lo, hi)
+        res_new, _ = residual(x_new)
+        cost_new = np.sum(res_new ** 2, axis=1)
+        better = cost_new < cost
+        x = np.where(better[:, None], x_new, x)
+        res = np.where(better[:, None], res_new, res)
+        cost = np.where(better, cost_new, cost)
+        lam = np.where(better, np.maximum(lam * 0.5, 1e-3), lam * 4.0)
+        if np.all(cost < 1e-6) or np.all(lam > 1e4):
+            break
+    _, rots = residual(x)
+    for j in joints:
+        local[:, j] = rots[j]
 
 
 def orient_hand(rig: Rig, skeleton: Skeleton, clip: Clip, hand: int, target_rot: np.ndarray) -> None:
