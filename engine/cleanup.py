@@ -189,6 +189,9 @@ def orient_hand(rig: Rig, skeleton: Skeleton, clip: Clip, hand: int, target_rot:
     the forearm (local x, along the bone) goes to the roll joint above the hand
     when it has that one DOF, the swing to the hand; both within their limits."""
     g_rot, _ = clip_fk(skeleton, clip)
+    off = quat.angle_between(g_rot[:, hand], target_rot) > 0.05       # frames already right stay as they are
+    if not off.any():
+        return
     roll = int(skeleton.parents[hand])
     local = quat.mul(quat.conjugate(g_rot[:, roll]), target_rot)      # hand local if it did it all
     bone = skeleton.offsets[hand]
@@ -201,10 +204,12 @@ def orient_hand(rig: Rig, skeleton: Skeleton, clip: Clip, hand: int, target_rot:
         t[:, 1 + twist_axis] = local[:, 1 + twist_axis]
         t = quat.normalize(t)
         old = clip.local_rotations[:, roll].copy()
-        clip.local_rotations[:, roll] = _constrain(rig, roll, quat.mul(old, t), old)
+        new = _constrain(rig, roll, quat.mul(old, t), old)
+        clip.local_rotations[:, roll] = np.where(off[:, None], new, old)
         applied = quat.mul(quat.conjugate(old), clip.local_rotations[:, roll])
         local = quat.mul(quat.conjugate(applied), local)
-    clip.local_rotations[:, hand] = _constrain(rig, hand, local, clip.local_rotations[:, hand])
+    new = _constrain(rig, hand, local, clip.local_rotations[:, hand])
+    clip.local_rotations[:, hand] = np.where(off[:, None], new, clip.local_rotations[:, hand])
 
 
 def _euler_in_limits(local: np.ndarray, limits: np.ndarray) -> np.ndarray:
