@@ -308,6 +308,31 @@ def _plant_weight(planted: np.ndarray, blend: int = PLANT_BLEND) -> np.ndarray:
     return x * x * (3 - 2 * x)
 
 
+PLANT_FOLLOW = 15.0   # cm: a plant further than this from the source's stays where the new motion put it
+
+
+def plant_targets(foot: np.ndarray, source_foot: np.ndarray, planted: np.ndarray) -> np.ndarray:
+    """Ankle targets ``(F, 3)`` for each planted run of ``planted (F,)``.
+
+    Where the new motion plants the foot near the source's plant (the run's mean
+    within PLANT_FOLLOW), the source's ankle positions; where it plants it
+    elsewhere (an aborted shot never strides), the foot is held still at the
+    new motion's mean position for the run, at the source's height, so it
+    neither slides nor gets dragged to a stride that no longer happens.
+    The hold target also covers the blend frames either side of the run."""
+    target = source_foot.copy()
+    F = len(planted)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], planted.astype(np.int8), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):          # runs [a, b)
+        here, there = foot[a:b].mean(axis=0), source_foot[a:b].mean(axis=0)
+        if np.linalg.norm((here - there)[[0, 2]]) <= PLANT_FOLLOW:
+            continue
+        hold = np.array([here[0], there[1], here[2]])
+        lo, hi = max(a - PLANT_BLEND, 0), min(b + PLANT_BLEND, F)
+        target[lo:hi] = hold
+    return target
+
+
 def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
                side: str, source_frames: np.ndarray):
     """Two-bone IK of one leg, in place, toward the source's ankle in its planted frames.
@@ -324,7 +349,7 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
         return np.zeros(F), planted
     sel = w > 0
     g_rot, g_pos = clip_fk(skeleton, clip)
-    t_pos = src_global_pos[source_frames, ankle]
+    t_pos = plant_targets(g_pos[:, ankle], src_global_pos[source_frames, ankle], planted)
     t_rot = src_global_rot[source_frames, ankle]
     target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
     target_rot = quat.slerp(g_rot[:, ankle], t_rot, w)

@@ -200,3 +200,18 @@ def test_own_chain_solver_reaches_reachable_targets(rig):
                                        iterations=100)
     assert np.all(np.isfinite(work.local_rotations))
     assert np.median(err) < 0.5
+
+
+def test_plant_targets_follow_near_plants_and_hold_far_ones():
+    F = 30
+    src = np.zeros((F, 3))
+    src[:, 2] = 50.0                                   # the source plants its foot at z = 50
+    planted = np.zeros(F, bool)
+    planted[5:12] = planted[18:26] = True
+    foot = np.zeros((F, 3))
+    foot[:, 2] = np.linspace(0, 30, F)                 # the new motion drifts, never reaching z = 50
+    foot[18:26, 2] = 48.0                              # ... except in the second plant
+    t = cleanup.plant_targets(foot, src, planted)
+    assert np.allclose(t[18:26], src[18:26])           # near: the source's plant
+    assert np.allclose(t[5:12], t[5])                  # far: held still ...
+    assert np.isclose(t[5, 2], foot[5:12, 2].mean()) and t[5, 1] == 0.0   # ... where it is, at ground height
