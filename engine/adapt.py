@@ -544,7 +544,7 @@ def _solve_chain(solver, prot, ppos, offsets, eff_off, local, euler, src_euler, 
 
 
 @njit(cache=True)
-def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_grot, src_gpos,
+def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_grot, src_gpos,
                   src_euler, subtree_l, subtree_r, bat, lhand,
                   lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
                   rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w,
@@ -585,8 +585,7 @@ def _adapt_frames(frames, hit, desired, falloff, parents, trans, src_local, src_
         out_gpos[i] = src_gpos[f]
         b_f = (src_gpos[f, bat, 0], src_gpos[f, bat, 1], src_gpos[f, bat, 2])
         r_f = (src_grot[f, bat, 0], src_grot[f, bat, 1], src_grot[f, bat, 2], src_grot[f, bat, 3])
-        blend = 1.0 - vnorm(vsub(b_f, b_h)) / falloff
-        blend = min(1.0, max(0.0, blend))
+        blend = blends[f]
         o = qrot(r_f, offset)
         handle = (b_f[0] + blend * o[0], b_f[1] + blend * o[1], b_f[2] + blend * o[2])
         out_blend[i] = blend
@@ -737,6 +736,9 @@ def check_settings(s: AdaptSettings) -> None:
         raise ValueError(f"iterations must be at least 1, got {s.iterations}")
 
 
+END_GUARD_FRAMES = 8   # frames over which the blend fades to 0 at a shot's ends, where needed
+
+
 class Adapter:
     """Per-shot precomputation (done once); :meth:`adapt` and :meth:`adapt_frame`
     then cost one compiled call each."""
@@ -784,9 +786,24 @@ class Adapter:
         return float(d.min())
 
     def blend(self, falloff: float) -> np.ndarray:
-        """Importance blend (F,) for a falloff in cm (2.2.5)."""
+        """Importance blend (F,) for a falloff in cm (2.2.5), with an end guard.
+
+        The dissertation requires every shot to start and end fully FK (the
+        shared stance and rest poses). Where the bat already lies within
+        ``falloff`` of the hit point at the first or last frame (defensive
+        shots whose hit point is near the stance), the blend is faded to 0 over
+        the END_GUARD_FRAMES frames at that end; otherwise it is exactly
+        ``clamp(1 - d / falloff, 0, 1)``.
+        """
         d = np.linalg.norm(self.bat_positions - self.hit_point, axis=-1)
-        return np.clip(1.0 - d / falloff, 0.0, 1.0)
+        blend = np.clip(1.0 - d / falloff, 0.0, 1.0)
+        F = len(blend)
+        frames = np.arange(F)
+        for end, steps in ((0, frames), (F - 1, F - 1 - frames)):
+            if blend[end] > 0.0:
+                t = np.clip(steps / END_GUARD_FRAMES, 0.0, 1.0)
+                blend = blend * (t * t * (3.0 - 2.0 * t))
+        return blend
 
     def _chain_args(self, settings: AdaptSettings) -> tuple:
         key = (settings.wrist_dof, settings.solver)
@@ -807,7 +824,7 @@ class Adapter:
         K, J = len(frames), self.parents.shape[0]
         out = (np.empty((K, J, 4)), np.empty((K, J, 4)), np.empty((K, J, 3)), np.empty(K),
                np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
-        _adapt_frames(frames, self.hit_frame, p, float(settings.falloff), self.parents, self.trans,
+        _adapt_frames(frames, self.hit_frame, p, self.blend(float(settings.falloff)), self.parents, self.trans,
                       self.src_local, self.src_grot, self.src_gpos, self.src_euler,
                       self.subtree_l, self.subtree_r, self.bat, self.lhand,
                       *self._chain_args(settings),

@@ -83,14 +83,31 @@ def test_other_settings_on_a_smaller_grid(rig, library, adapters, solver, wrist)
             _check_adaptation(rig, ad, ad.adapt(t, settings), t, settings)
 
 
-def test_first_and_last_frames_are_the_source(rig, library, adapters):
+@pytest.mark.parametrize("falloff", [20.0, 90.0, 200.0])
+def test_first_and_last_frames_are_the_source(rig, library, adapters, falloff):
+    """Every shot starts and ends on its source pose, whatever the falloff
+    (the end guard fades the blend where the importance alone would not)."""
     for shot in library:
         ad = adapters[shot.name]
-        falloff = min(90.0, 0.99 * ad.max_falloff)       # blend 0 at both ends
         a = ad.adapt(shot.hit_point + np.array([-20.0, 10.0, 5.0]), AdaptSettings(falloff=falloff))
         for f in (0, shot.num_frames - 1):
             assert a.blend[f] == 0
             assert np.array_equal(a.local_rotations[f], shot.clip.local_rotations[f])
+        assert a.blend[shot.hit_frame] == 1.0
+
+
+def test_end_guard_only_where_the_importance_blend_needs_it(library, adapters):
+    from engine.adapt import END_GUARD_FRAMES
+    for shot in library:
+        ad = adapters[shot.name]
+        b = ad.bat_positions
+        importance = np.clip(1 - np.linalg.norm(b - ad.hit_point, axis=-1) / 90.0, 0, 1)
+        blend = ad.blend(90.0)
+        assert np.all(blend <= importance + 1e-15)
+        inner = slice(END_GUARD_FRAMES, shot.num_frames - END_GUARD_FRAMES)
+        assert np.array_equal(blend[inner], importance[inner])
+        if importance[0] == 0 and importance[-1] == 0:
+            assert np.array_equal(blend, importance)
 
 
 def test_source_hit_point_gives_the_source_shot(library, adapters):
@@ -124,6 +141,7 @@ def test_blend_and_handle_follow_the_dissertation(library, adapters):
     grot, gpos = shot.fk
     b = gpos[:, shot.bat_joint]
     blend = np.clip(1 - np.linalg.norm(b - b[shot.hit_frame], axis=-1) / 70.0, 0, 1)
+    assert blend[0] == 0 and blend[-1] == 0     # no end guard needed at this falloff
     assert np.allclose(a.blend, blend)
     off = quat.rotate(quat.conjugate(grot[shot.hit_frame, shot.bat_joint]), target - b[shot.hit_frame])
     assert np.allclose(a.handles, b + blend[:, None] * quat.rotate(grot[:, shot.bat_joint], off))
