@@ -15,8 +15,8 @@ def register(cli: typer.Typer) -> None:
     @cli_errors
     def synth_cmd(
         shot: str = typer.Option(..., "--shot", help="Source shot (its PC space)."),
-        path: Path = typer.Option(..., "--path", help="Path JSON: a list of [pc1, pc2] (or [pc1, pc2, seconds]), "
-                                  "{\"points\": [...], \"times\": [...], \"fps\": 30}, or "
+        path: Path = typer.Option(..., "--path", help="Path JSON: a list of \\[pc1, pc2] points (or \\[pc1, pc2, seconds]), "
+                                  "{\"points\": \\[...], \"times\": \\[...], \"fps\": 30}, or "
                                   "{\"preset\": \"exaggerated|toned_down|aborted\", \"amount\": x}."),
         out: Path = typer.Option(..., "--out", help="Output BVH (written atomically)."),
         fix_hand: bool = typer.Option(True, "--fix-hand/--no-fix-hand", help="Re-attach the right hand to the bat."),
