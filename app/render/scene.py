@@ -145,6 +145,7 @@ class SceneRenderer:
         self.p_sky = program(ctx, "sky.vert", "sky.frag")
         self.p_line = program(ctx, "line.vert", "line.frag", "line.geom")
         self.p_point = program(ctx, "line.vert", "point.frag", "point.geom")
+        self.p_ghost = program(ctx, "ghost_composite.vert", "ghost_composite.frag")
 
         self.body = _MeshGPU(ctx, self.body_mesh, self.p_skin, self.p_depth_skin, True)
         self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static, False)
@@ -173,6 +174,11 @@ class SceneRenderer:
         self._overlay_vaos = {}
         self._offscreen = {}
         self._bones = bytearray(MAX_BONES * 64)
+        self.ghost_vao = ctx.vertex_array(self.p_ghost, [])
+        self._joint_boxes = joint_boxes(self.body_mesh, rig.skeleton.num_joints)
+        self._static = _Layer()     # sky, ground, stadium, wickets for one camera and size
+        self._ghost = _Layer()      # the translucent ghost's nearest surface (colour + depth)
+        self._static_light = self._light_matrix(None)
         self._static_setup()
 
     # ------------------------------------------------------------------ setup
@@ -207,11 +213,12 @@ class SceneRenderer:
         return np.einsum("jab,jb->ja", m[:, :3, :3], self.bind_positions) + m[:, :3, 3]
 
     # ------------------------------------------------------------------ passes
-    def _light_matrix(self, view: SceneView) -> np.ndarray:
+    def _light_matrix(self, view: SceneView | None) -> np.ndarray:
+        """Orthographic sun view-projection fitted around the stumps, the batsman and a near ball."""
         pts = [np.array([[0.0, 0.0, 0.0], [0.0, 72.0, 0.0]])]
-        if view.skin_matrices is not None:
+        if view is not None and view.skin_matrices is not None:
             pts.append(self.joint_positions(view.skin_matrices))
-        if view.ball_position is not None:
+        if view is not None and view.ball_position is not None:
             b = np.asarray(view.ball_position, float)[None]
             if pts[-1].size and np.linalg.norm(b - pts[-1].mean(0)) < 400:
                 pts.append(b)
@@ -224,7 +231,9 @@ class SceneRenderer:
         light_view[:2, 3] = np.round(light_view[:2, 3] / texel) * texel
         return orthographic(radius, radius, 2000.0 - 3 * radius, 2000.0 + 3 * radius) @ light_view
 
-    def _draw_shadow(self, view: SceneView, light_vp: np.ndarray) -> None:
+    def _draw_shadow(self, view: SceneView | None, light_vp: np.ndarray) -> None:
+        """Depth from the sun: the batsman and the ball (dynamic) and the stumps; ``view``
+        None draws the stumps alone (for the cached static layer)."""
         ctx = self.ctx
         self.shadow_fbo.use()
         ctx.viewport = (0, 0, SHADOW_SIZE, SHADOW_SIZE)
@@ -232,18 +241,75 @@ class SceneRenderer:
         ctx.polygon_offset = (2.0, 4.0)
         set_uniform(self.p_depth_skin, "u_view_proj", light_vp)
         set_uniform(self.p_depth_static, "u_view_proj", light_vp)
-        if view.skin_matrices is not None:
+        if view is not None and view.skin_matrices is not None:
             self._upload_bones(self.p_depth_skin, view.skin_matrices)
             self.body.depth.render()
         set_uniform(self.p_depth_static, "u_model", np.eye(4, dtype=np.float32))
         self.wickets.depth.render()
-        if view.ball_position is not None:
+        if view is not None and view.ball_position is not None:
             set_uniform(self.p_depth_static, "u_model", props.translation(view.ball_position))
             self.ball.depth.render()
         ctx.polygon_offset = (0.0, 0.0)
 
+    def _frame_uniforms(self, vp, eye, light_vp, shadows: bool) -> None:
+        self.shadow_tex.use(0)
+        for p in (self.p_skin, self.p_static, self.p_ground, self.p_receiver):
+            set_uniform(p, "u_view_proj", vp)
+            set_uniform(p, "u_eye", eye)
+            set_uniform(p, "u_light_vp", light_vp)
+            set_uniform(p, "u_shadow_on", 1.0 if shadows else 0.0)
+
+    def _draw_static(self, view: SceneView, vp, eye, shadows: bool) -> None:
+        """Ground (painter's order, unshadowed), stumps, stadium and sky into the bound framebuffer."""
+        import moderngl
+
+        ctx = self.ctx
+        if view.show_pitch:
+            ctx.depth_func = "1"
+            self.ground.render()
+            ctx.depth_func = "<"
+        ctx.enable(moderngl.CULL_FACE)
+        set_uniform(self.p_static, "u_mode", 0)
+        set_uniform(self.p_static, "u_model", np.eye(4, dtype=np.float32))
+        self.wickets.lit.render()
+        ctx.disable(moderngl.CULL_FACE)
+        if view.show_pitch:
+            self.stadium.render()    # flat-lit, after the near geometry so early-z skips hidden parts
+        ctx.depth_func = "<="
+        set_uniform(self.p_sky, "u_inv_view_proj", np.linalg.inv(vp.astype(float)).astype(np.float32))
+        self.sky.render(vertices=3)
+        ctx.depth_func = "<"
+
+    def _static_layer(self, view: SceneView, target, vp, eye, shadows: bool):
+        """The static scene for this camera and size, drawn once into an offscreen framebuffer
+        of the target's sample count; None when ``target`` cannot take a depth blit."""
+        if target is self.ctx.screen or getattr(target, "depth_attachment", None) is None:
+            return None
+        samples = int(getattr(target, "samples", 0) or 0)
+        key = (tuple(view.size), samples, np.asarray(view.view, np.float32).tobytes(),
+               np.asarray(view.proj, np.float32).tobytes(), bool(view.show_pitch), shadows)
+        layer = self._static
+        if layer.key == key:
+            return layer.fbo
+        fbo = layer.framebuffer(self.ctx, tuple(view.size), samples, textures=False)
+        if shadows:   # the stumps shadow themselves in the cached image (the batsman does not)
+            self._draw_shadow(None, self._static_light)
+        fbo.use()
+        self.ctx.viewport = (0, 0, *view.size)
+        fbo.clear(*BACKGROUND, 1.0, depth=1.0)
+        self._frame_uniforms(vp, eye, self._static_light, shadows)
+        self._draw_static(view, vp, eye, shadows)
+        layer.key = key
+        return fbo
+
     def render(self, view: SceneView, fbo=None) -> None:
-        """Draw the scene into ``fbo`` (default: the screen), including the shadow pass."""
+        """Draw the scene into ``fbo`` (default: the screen), including the shadow pass.
+
+        The static scene (sky, ground, stadium, stumps) is drawn once per camera and size into
+        a cached colour + depth layer and copied in; per frame only the batsman's shadow (a
+        receiver over the ground), the batsman, ball, target, overlays and the (cached) ghost
+        are drawn over it.
+        """
         import moderngl
 
         ctx = self.ctx
@@ -251,43 +317,36 @@ class SceneRenderer:
         w, h = view.size
         vp = (np.asarray(view.proj, np.float32) @ np.asarray(view.view, np.float32))
         self._vp = vp
-        eye = -np.asarray(view.view, float)[:3, :3].T @ np.asarray(view.view, float)[:3, 3]
+        eye = tuple(-np.asarray(view.view, float)[:3, :3].T @ np.asarray(view.view, float)[:3, 3])
 
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         ctx.depth_func = "<"
-        light_vp = self._light_matrix(view)
         shadows = bool(view.shadows)
+        static = self._static_layer(view, target_fbo, vp, eye, shadows)
+        ghost = self._ghost_layer(view, vp, eye) if static is not None else None
+        light_vp = self._light_matrix(view)
         if shadows:
             self._draw_shadow(view, light_vp)
 
         target_fbo.use()
         ctx.viewport = (0, 0, w, h)
-        target_fbo.clear(*BACKGROUND, 1.0, depth=1.0)
-        self.shadow_tex.use(0)
-        for p in (self.p_skin, self.p_static, self.p_ground, self.p_receiver):
-            set_uniform(p, "u_view_proj", vp)
-            set_uniform(p, "u_eye", tuple(eye))
-            set_uniform(p, "u_light_vp", light_vp)
-            set_uniform(p, "u_shadow_on", 1.0 if shadows else 0.0)
-
-        # ground first, in painter's order; everything else depth-tested over it
-        if view.show_pitch:
-            ctx.depth_func = "1"
-            self.ground.render()
-            if shadows:
-                self._draw_receiver(light_vp)
-            ctx.depth_func = "<"
+        self._frame_uniforms(vp, eye, light_vp, shadows)
+        if static is not None:
+            ctx.copy_framebuffer(target_fbo, static)
+            target_fbo.use()
+        else:
+            target_fbo.clear(*BACKGROUND, 1.0, depth=1.0)
+            self._draw_static(view, vp, eye, shadows)
+        if view.show_pitch and shadows:
+            self._draw_receiver(light_vp)
         # every mesh is closed with outward winding (the helmet has a lining): cull back faces
         ctx.enable(moderngl.CULL_FACE)
         if view.skin_matrices is not None:
             set_uniform(self.p_skin, "u_mode", 0)
             self._upload_bones(self.p_skin, view.skin_matrices)
             self.body.lit.render()
-        ident = np.eye(4, dtype=np.float32)
         set_uniform(self.p_static, "u_mode", 0)
-        set_uniform(self.p_static, "u_model", ident)
-        self.wickets.lit.render()
         if view.ball_position is not None:
             set_uniform(self.p_static, "u_model", props.translation(view.ball_position))
             self.ball.lit.render()
@@ -298,17 +357,14 @@ class SceneRenderer:
             self.target.lit.render()
             set_uniform(self.p_static, "u_emissive", (0.0, 0.0, 0.0))
         ctx.disable(moderngl.CULL_FACE)
-        if view.show_pitch:
-            self.stadium.render()    # flat-lit, after the near geometry so early-z skips hidden parts
-        ctx.depth_func = "<="
-        set_uniform(self.p_sky, "u_inv_view_proj", np.linalg.inv(vp.astype(float)).astype(np.float32))
-        self.sky.render(vertices=3)
 
         # overlays and ghost (blended)
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
         self._draw_overlays(view, vp, (w, h))
-        if view.ghost_skin_matrices is not None and view.ghost_alpha > 0:
+        if ghost is not None:
+            self._composite_ghost(ghost)
+        elif view.ghost_skin_matrices is not None and view.ghost_alpha > 0:
             ctx.enable(moderngl.CULL_FACE)
             self._draw_ghost(view, target_fbo)
             ctx.disable(moderngl.CULL_FACE)
@@ -330,8 +386,71 @@ class SceneRenderer:
         ctx = self.ctx
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.DST_COLOR, moderngl.ZERO
+        # on the ground plane, behind anything standing on it (stumps): depth-tested, no writes
+        ctx.depth_func = "<="
+        ctx.depth_mask = False
+        ctx.polygon_offset = (-1.0, -4.0)
         self.receiver.render(vertices=6)
+        ctx.polygon_offset = (0.0, 0.0)
+        ctx.depth_mask = True
+        ctx.depth_func = "<"
         ctx.disable(moderngl.BLEND)
+
+    def _ghost_layer(self, view: SceneView, vp, eye):
+        """The ghost's nearest surface (colour with alpha, depth) for this camera and pose, drawn
+        only when they change (the source pose holds still while the target is dragged);
+        None when there is no ghost."""
+        import moderngl
+
+        if view.ghost_skin_matrices is None or view.ghost_alpha <= 0:
+            return None
+        ghost = np.asarray(view.ghost_skin_matrices, np.float32)
+        key = (tuple(view.size), vp.tobytes(), ghost.tobytes(), float(view.ghost_alpha))
+        layer = self._ghost
+        if layer.key != key:
+            ctx = self.ctx
+            fbo = layer.framebuffer(ctx, tuple(view.size), 0, textures=True)
+            fbo.use()
+            ctx.viewport = (0, 0, *view.size)
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            set_uniform(self.p_skin, "u_view_proj", vp)
+            set_uniform(self.p_skin, "u_eye", eye)
+            ctx.enable(moderngl.CULL_FACE)
+            self._draw_ghost(view, fbo)
+            ctx.disable(moderngl.CULL_FACE)
+            layer.rect = self._screen_rect(ghost, vp)
+            layer.key = key
+        return layer
+
+    def _screen_rect(self, skin_matrices: np.ndarray, vp: np.ndarray) -> tuple | None:
+        """NDC rectangle (x0, y0, x1, y1) holding the skinned mesh, from its per-joint boxes
+        (every skinned vertex is a convex blend of its joints' transformed boxes)."""
+        corners = np.einsum("jab,jkb->jka", np.asarray(skin_matrices, float), self._joint_boxes)
+        clip = corners.reshape(-1, 4) @ vp.astype(float).T
+        if np.any(clip[:, 3] <= 1e-3):
+            return (-1.0, -1.0, 1.0, 1.0)     # crosses the eye plane: the whole viewport
+        ndc = clip[:, :2] / clip[:, 3:]
+        lo, hi = np.clip(ndc.min(0), -1, 1), np.clip(ndc.max(0), -1, 1)
+        if np.any(hi <= lo):
+            return None
+        return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+    def _composite_ghost(self, layer) -> None:
+        """Blend the cached ghost over the frame where it is nearer than the scene."""
+        import moderngl
+
+        if layer.rect is None:
+            return
+        ctx = self.ctx
+        layer.color.use(1)
+        layer.depth.use(2)
+        set_uniform(self.p_ghost, "u_ghost_color", 1)
+        set_uniform(self.p_ghost, "u_ghost_depth", 2)
+        set_uniform(self.p_ghost, "u_rect", layer.rect)
+        ctx.depth_func = "<"
+        ctx.depth_mask = False
+        self.ghost_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
+        ctx.depth_mask = True
 
     def _draw_ghost(self, view: SceneView, target_fbo) -> None:
         ctx = self.ctx
@@ -450,6 +569,58 @@ class SceneRenderer:
             resolve = ctx.framebuffer(color_attachments=[ctx.renderbuffer(size, 4)])
             self._offscreen[key] = (msaa, resolve)
         return self._offscreen[key]
+
+
+class _Layer:
+    """An offscreen framebuffer kept between frames, with the key of what it holds."""
+
+    def __init__(self):
+        self.key = None
+        self.fbo = self.color = self.depth = None
+        self.rect = None
+        self._shape = None
+
+    def framebuffer(self, ctx, size: tuple[int, int], samples: int, textures: bool):
+        """The framebuffer for ``size``/``samples`` (recreated when they change)."""
+        shape = (size, samples, textures)
+        if shape != self._shape:
+            self.release()
+            if textures:
+                self.color = ctx.texture(size, 4)
+                self.depth = ctx.depth_texture(size)
+                self.depth.compare_func = ""
+                import moderngl
+                for t in (self.color, self.depth):
+                    t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            else:
+                self.color = ctx.renderbuffer(size, 4, samples=samples)
+                self.depth = ctx.depth_renderbuffer(size, samples=samples)
+            self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
+            self._shape = shape
+        self.key = None
+        return self.fbo
+
+    def release(self) -> None:
+        for obj in (self.fbo, self.color, self.depth):
+            if obj is not None:
+                obj.release()
+        self.fbo = self.color = self.depth = None
+        self._shape = self.key = None
+
+
+def joint_boxes(mesh, num_joints: int) -> np.ndarray:
+    """Per joint, the 8 corners ``(J, 8, 4)`` (homogeneous) of the rest-pose box of the
+    vertices it influences (a degenerate box at the origin for joints without vertices)."""
+    boxes = np.zeros((num_joints, 8, 4))
+    boxes[..., 3] = 1.0
+    for j in range(num_joints):
+        used = np.any((mesh.joints == j) & (mesh.weights > 0), axis=1)
+        if not used.any():
+            continue
+        lo, hi = mesh.positions[used].min(0), mesh.positions[used].max(0)
+        for k in range(8):
+            boxes[j, k, :3] = [(hi if (k >> a) & 1 else lo)[a] for a in range(3)]
+    return boxes
 
 
 def _aces(c):

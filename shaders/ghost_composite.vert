@@ -1,0 +1,7 @@
+#version 330
+// A screen rectangle (NDC, from the ghost's projected bounds) for the cached ghost layer.
+uniform vec4 u_rect;   // x0, y0, x1, y1 in NDC
+void main() {
+    vec2 c = vec2((gl_VertexID & 1) == 0 ? u_rect.x : u_rect.z, (gl_VertexID & 2) == 0 ? u_rect.y : u_rect.w);
+    gl_Position = vec4(c, 0.0, 1.0);
+}
