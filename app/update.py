@@ -11,6 +11,9 @@ from app.settings import ViewerSettings
 from app.state import AppState, Pose
 
 
+FLIGHT_DT = 1.0 / 120.0   # s between samples of engine.ballistics.fly (its default step)
+
+
 def load_library(state: AppState, manifest=None) -> bool:
     """(Re)load the rig and shot library; on failure keep what was loaded."""
     try:
@@ -40,11 +43,16 @@ def load_library(state: AppState, manifest=None) -> bool:
     return True
 
 
-def default_target(state: AppState, index: int = 0) -> np.ndarray:
-    """A target whose ball path passes exactly through shot ``index``'s FK hit point."""
+def default_target(state: AppState, index: int | None = None) -> np.ndarray:
+    """A target whose ball path passes exactly through shot ``index``'s FK hit
+    point (default: the shot whose target sits nearest waist height behind the
+    stumps, so the disc starts clear of the ground and unadapted)."""
     from app.picking import TARGET_PLANE_Z, clamp_target
     if not len(state.hit_points):
         return clamp_target((0.0, 60.0, TARGET_PLANE_Z))
+    if index is None:
+        targets = [default_target(state, i) for i in range(len(state.hit_points))]
+        index = int(np.argmin([abs(t[1] - 60.0) + 0.5 * abs(t[0]) for t in targets]))
     start, hit = state.ball_start, state.hit_points[index]
     d = hit - start
     t = (TARGET_PLANE_Z - start[2]) / d[2] if abs(d[2]) > 1e-9 else 1.0
@@ -142,13 +150,15 @@ def ball_flight(state: AppState, index: int, adaptation, desired) -> tuple[np.nd
     """Ball after impact ``(K,3)`` and the time between its samples (s)."""
     from engine import ballistics
     shot = state.shots[index]
+    rig = state.rig
+    hand = int(rig.skeleton.parents[rig.bat_joint])      # the bat hangs off the left hand
     polyline = ballistics.ball_after_impact(
-        adaptation.global_rotations, adaptation.global_positions, shot.hit_frame, shot.clip.fps,
-        state.rig, state.ball_start, desired)
+        adaptation.global_rotations, adaptation.global_positions, rig.bat_joint, hand,
+        rig.bat["face_normal"], shot.hit_frame, shot.clip.fps, state.ball_start, desired)
     polyline = np.asarray(polyline, float)
     if polyline.ndim != 2 or polyline.shape[-1] != 3 or not np.isfinite(polyline).all():
         raise FloatingPointError("ball flight is not a finite (K,3) polyline")
-    return polyline, getattr(ballistics, "FLIGHT_DT", 1.0 / shot.clip.fps)
+    return polyline, FLIGHT_DT
 
 
 def time_based_blend(num_frames: int, hit_frame: int, importance: np.ndarray) -> np.ndarray:
