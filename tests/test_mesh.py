@@ -145,13 +145,14 @@ def test_elbow_and_knee_blend_smoothly(body, rig):
         assert shared.sum() > 20, (a, b)
 
 
-def test_committed_glb_matches_the_script(body, rig):
+def test_committed_glb_matches_the_script(body, meshes, rig):
     """assets/batsman.glb is what tools/make_batsman.py builds (reproducible)."""
     from tools.make_batsman import build
     model = build(rig)
     assert np.allclose(model["body"].vertices, body.positions, atol=1e-4)
     assert np.array_equal(model["body"].faces, body.indices)
     assert np.allclose(model["weights"], body.weights, atol=1e-6)
+    assert np.array_equal(model["shadow"].faces, meshes["BatsmanShadow"].indices)
 
 
 def test_unknown_skin_joint_is_a_clear_error(tmp_path, rig):
@@ -163,3 +164,17 @@ def test_unknown_skin_joint_is_a_clear_error(tmp_path, rig):
     g.save_binary(str(path))
     with pytest.raises(ValueError, match="NotAJoint"):
         load_glb(path, rig)
+
+
+def test_shadow_caster_is_a_coarse_copy(body, meshes, rig):
+    """``BatsmanShadow``: the same skin, a third of the triangles, the same extent."""
+    shadow = meshes["BatsmanShadow"]
+    assert shadow.skin_joint_names == rig.skeleton.names
+    assert shadow.num_triangles < body.num_triangles / 2
+    assert np.allclose(shadow.weights.sum(1), 1.0, atol=1e-5)
+    assert np.allclose(shadow.positions.min(0), body.positions.min(0), atol=2.0)
+    assert np.allclose(shadow.positions.max(0), body.positions.max(0), atol=2.0)
+    # posed, it stays inside the posed body's box (the coarse rings lie on the fine surface)
+    M = _pose(rig, {"LeftArm": ((0, 0, 1), -60), "RightUpLeg": ((1, 0, 0), -40)})
+    a, b = _skin(shadow, M), _skin(body, M)
+    assert np.all(a.min(0) > b.min(0) - 2.0) and np.all(a.max(0) < b.max(0) + 2.0)

@@ -12,7 +12,8 @@ to ``engine.rig.default_rig().skeleton`` with computed weights:
 * the bat (geometry from ``rig.bat``) is bound 100 % to LeftHand.
 
 The glTF 2.0 binary holds one skinned mesh ``Batsman`` (vertex colours COLOR_0,
-a per-vertex gloss ``_GLOSS``), the joint nodes (names as in the rig, rest
+a per-vertex gloss ``_GLOSS``), a coarse skinned copy ``BatsmanShadow`` (the same
+shapes at a lower ``detail``: the renderer's shadow caster), the joint nodes (names as in the rig, rest
 frames world-aligned, so each inverse bind matrix is a translation by the
 negated bind position) and an unskinned ``Ball`` mesh. Units are cm.
 """
@@ -56,6 +57,29 @@ class Part:
     colors: np.ndarray     # (V, 3) sRGB
     gloss: float
     weights: np.ndarray | None = None  # (V, J)
+
+
+# ----------------------------------------------------------------- detail
+# Tessellation level: 1.0 is the reference; the primitives scale their ring counts, steps
+# along paths and subdivisions by it. Set only through ``build(detail=...)``.
+BODY_DETAIL = 0.65      # the drawn mesh (~20k triangles: llvmpipe pays per triangle)
+SHADOW_DETAIL = 0.4     # the shadow caster (only its outline matters)
+_detail = 1.0
+
+
+def ring(n: int, low: int = 4) -> int:
+    """Segments round a section at the current detail (even, at least ``low``)."""
+    return n if _detail == 1.0 else max(low, 2 * int(round(n * _detail / 2)))
+
+
+def count(n: int, low: int = 2) -> int:
+    """Samples along a path at the current detail."""
+    return n if _detail == 1.0 else max(low, int(round(n * _detail)))
+
+
+def subdiv(s: int) -> int:
+    """Icosphere subdivisions at the current detail."""
+    return max(1, s - (1 if _detail < 0.6 else 0))
 
 
 # ----------------------------------------------------------------- geometry
@@ -116,6 +140,8 @@ def tube(centres, ru, rv, up, n=24, power=2.0, dome_start=0.0, dome_end=0.0, ste
     ``dome_*`` > 0 closes that end with a half-ellipsoid of that depth (cm); ``step``
     resamples the sections every ``step`` cm.
     """
+    # along the path only the coarse caster thins out: joints bend over many rings
+    n, step = ring(n), (step / _detail if step and _detail < 0.6 else step)
     centres = np.asarray(centres, float)
     ru, rv = np.broadcast_to(np.asarray(ru, float), len(centres)), np.broadcast_to(np.asarray(rv, float), len(centres))
     if step:
@@ -130,7 +156,7 @@ def tube(centres, ru, rv, up, n=24, power=2.0, dome_start=0.0, dome_end=0.0, ste
         c, a, b, uu, vv = sections[end]
         sign = -1 if end == 0 else 1
         dome = []
-        for ang in np.radians([22.5, 45, 67.5, 82])[:]:
+        for ang in np.radians([22.5, 45, 67.5, 82] if _detail >= 0.6 else [40, 75]):
             dome.append((c + sign * np.sin(ang) * depth * tangent[end], a * np.cos(ang), b * np.cos(ang), uu, vv))
         sections = (dome[::-1] + sections) if end == 0 else (sections + dome)
     th = np.linspace(0, 2 * np.pi, n, endpoint=False)
@@ -143,7 +169,7 @@ def tube(centres, ru, rv, up, n=24, power=2.0, dome_start=0.0, dome_end=0.0, ste
 
 def superellipsoid(centre, radii, power=2.0, subdivisions=3):
     """Rounded box / ellipsoid from an icosphere (vertices, faces)."""
-    s = trimesh.creation.icosphere(subdivisions=subdivisions)
+    s = trimesh.creation.icosphere(subdivisions=subdiv(subdivisions))
     n = np.asarray(s.vertices)
     e = 2.0 / power
     p = np.sign(n) * np.abs(n) ** e
@@ -153,7 +179,7 @@ def superellipsoid(centre, radii, power=2.0, subdivisions=3):
 def capsule(p0, p1, radius, count=(12, 16)):
     p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
     h = np.linalg.norm(p1 - p0)
-    m = trimesh.creation.capsule(height=h, radius=radius, count=list(count))
+    m = trimesh.creation.capsule(height=h, radius=radius, count=[ring(c, 4) for c in count])
     z = np.array([0, 0, 1.0])
     d = (p1 - p0) / h
     R = trimesh.geometry.align_vectors(z, d)
@@ -284,7 +310,7 @@ def torso(rig, W) -> list[Part]:
 def helmet(W) -> list[Part]:
     parts = []
     c, r = np.array([0, 168.5, 1.0]), np.array([12.3, 12.8, 13.6])
-    s = trimesh.creation.icosphere(subdivisions=3)
+    s = trimesh.creation.icosphere(subdivisions=subdiv(3))
     n = np.asarray(s.vertices)
     fc = n[s.faces].mean(1)
     keep = (fc[:, 1] > 0.30) | ((fc[:, 2] < 0.42) & (fc[:, 1] > -0.55 + 0.5 * np.maximum(fc[:, 2], 0)))
@@ -302,7 +328,7 @@ def helmet(W) -> list[Part]:
     p.weights = W.one(len(p.vertices), "Head")
     parts.append(p)
     # peak: a thin curved lip along the front rim
-    th = np.radians(np.linspace(-70, 70, 17))
+    th = np.radians(np.linspace(-70, 70, count(17, 5)))
     ring_c = np.stack([np.sin(th) * 12.6, np.full_like(th, 172.4), 1.0 + np.cos(th) * 13.4 + 2.2], 1)
     ring_c[:, 1] -= 0.9 * np.cos(th)  # droops a little at the front
     v, f = tube(ring_c, 0.45, 2.8, up=(0, 1, 0), n=8, power=3.0, dome_start=0.5, dome_end=0.5)
@@ -312,7 +338,7 @@ def helmet(W) -> list[Part]:
     # grille: horizontal arcs and two uprights
     bars = []
     for y, rad, span in ((167.0, 14.2, 62), (162.0, 14.6, 60), (157.0, 14.2, 55)):
-        th = np.radians(np.linspace(-span, span, 13))
+        th = np.radians(np.linspace(-span, span, count(13, 5)))
         bars.append(np.stack([np.sin(th) * rad * 0.92, np.full_like(th, y), 1.0 + np.cos(th) * rad], 1))
     for x in (-4.0, 4.0):
         ys = np.linspace(156.5, 171.5, 5)
@@ -395,9 +421,9 @@ def leg_radius(y):
 def pad(W, L, s) -> list[Part]:
     """Batting pad: three vertical bolsters, knee roll, side wings, straps."""
     parts = []
-    ys = np.concatenate([[7.5, 7.7, 8.2, 9.0], np.linspace(10, 62, 22), [63.5, 64.5, 65.0, 65.2]])
+    ys = np.concatenate([[7.5, 7.7, 8.2, 9.0], np.linspace(10, 62, count(22, 6)), [63.5, 64.5, 65.0, 65.2]])
     fade = smoothstep(7.5, 10.0, ys) * smoothstep(65.2, 62.0, ys)
-    M = 22
+    M = ring(22, 8)
     u = np.linspace(-1, 1, M)
     rings = []
     for y, fd in zip(ys, fade):
@@ -424,7 +450,7 @@ def pad(W, L, s) -> list[Part]:
     parts.append(p)
     # straps round the back of the calf
     for y in (18.0, 36.0):
-        th = np.radians(np.linspace(100, 260, 11))
+        th = np.radians(np.linspace(100, 260, count(11, 4)))
         r = leg_radius(y) + 0.5
         path = np.stack([s * 9.0 + np.sin(th) * r * 1.05, np.full_like(th, y), 0.6 + np.cos(th) * r], 1)
         v, f = tube(path, 1.5, 0.35, up=(0, 1, 0), n=8, power=4, dome_start=0.3, dome_end=0.3)
@@ -473,21 +499,22 @@ def bat(rig: Rig, W, bind) -> list[Part]:
     L, H, Wd = b["length"], b["handle_length"], b["blade_width"]
     T, E = b["blade_thickness"], b["edge_thickness"]
     # handle: rubber grip with ribs, then the cane splice into the blade
-    a = np.linspace(0.0, H + 2.0, 40)
-    r = 1.65 + 0.12 * (np.cos(a * 2.4) > 0.3) * (a < H - 6)
-    th = np.linspace(0, 2 * np.pi, 12, endpoint=False)
-    rings = np.array([to_world(np.full(12, ai), np.cos(th) * ri * 1.05, np.sin(th) * ri) for ai, ri in zip(a, r)])
+    a = np.linspace(0.0, H + 2.0, count(40, 4))
+    r = 1.65 + 0.12 * (np.cos(a * 2.4) > 0.3) * (a < H - 6) * (_detail >= 0.6)
+    m = ring(12, 6)
+    th = np.linspace(0, 2 * np.pi, m, endpoint=False)
+    rings = np.array([to_world(np.full(m, ai), np.cos(th) * ri * 1.05, np.sin(th) * ri) for ai, ri in zip(a, r)])
     v, f = loft(rings, cap_start=True, cap_end=True)
     p = finish(v, f, WILLOW, 0.5)
     along = (v - top) @ axis
     p.colors[along[:len(p.colors)] < H - 6] = GRIP
     parts.append(p)
     # blade cross-section: flat face, ridged back (spine); edges E, centre T thick
-    M = 28
+    M = ring(28, 8)
     xs = np.linspace(-1, 1, M // 2)
     face = np.stack([xs * 0.97, np.full_like(xs, 1.0)], 1)
     back = np.stack([xs[::-1] * 0.97, np.full_like(xs, -1.0)], 1)
-    a_blade = np.concatenate([[H - 4.0, H - 2.5, H - 1.2], np.linspace(H, L - 1.2, 18), [L - 0.4, L]])
+    a_blade = np.concatenate([[H - 4.0, H - 2.5, H - 1.2], np.linspace(H, L - 1.2, count(18, 4)), [L - 0.4, L]])
     rings = []
     for ai in a_blade:
         shoulder = smoothstep(H - 4.5, H + 1.0, ai)
@@ -542,19 +569,33 @@ def top4(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return idx.astype(np.uint8), w
 
 
-def build(rig: Rig | None = None) -> dict:
-    rig = rig or default_rig()
-    bind = bind_positions(rig.skeleton)
-    W = Weigher(rig)
-    parts = torso(rig, W) + helmet(W)
-    for L, s in (("Left", 1), ("Right", -1)):
-        parts += arm(W, L, s) + leg(W, L, s)
-    parts += bat(rig, W, bind)
-    body, gloss = merge(parts)
+def body_at(rig: Rig, detail: float) -> tuple[Part, np.ndarray, np.ndarray, np.ndarray]:
+    """The whole batsman at ``detail``: merged part, per-vertex gloss, top-4 joints and weights."""
+    global _detail
+    previous, _detail = _detail, float(detail)
+    try:
+        bind = bind_positions(rig.skeleton)
+        W = Weigher(rig)
+        parts = torso(rig, W) + helmet(W)
+        for L, s in (("Left", 1), ("Right", -1)):
+            parts += arm(W, L, s) + leg(W, L, s)
+        parts += bat(rig, W, bind)
+        body, gloss = merge(parts)
+    finally:
+        _detail = previous
     joints, weights = top4(body.weights)
+    return body, gloss, joints, weights
+
+
+def build(rig: Rig | None = None, detail: float = BODY_DETAIL, shadow_detail: float | None = SHADOW_DETAIL) -> dict:
+    rig = rig or default_rig()
+    body, gloss, joints, weights = body_at(rig, detail)
     ballp, ball_gloss = ball(rig.ball_radius)
-    return {"body": body, "body_gloss": gloss, "joints": joints, "weights": weights,
-            "ball": ballp, "ball_gloss": ball_gloss, "bind": bind, "rig": rig}
+    model = {"body": body, "body_gloss": gloss, "joints": joints, "weights": weights,
+             "ball": ballp, "ball_gloss": ball_gloss, "bind": bind_positions(rig.skeleton), "rig": rig}
+    if shadow_detail is not None:
+        model["shadow"], model["shadow_gloss"], model["shadow_joints"], model["shadow_weights"] = body_at(rig, shadow_detail)
+    return model
 
 
 # ----------------------------------------------------------------- glTF
@@ -596,6 +637,10 @@ def write_glb(model: dict, path: Path) -> None:
 
     body_prim = prim(model["body"], model["body_gloss"], model["joints"], model["weights"])
     ball_prim = prim(model["ball"], model["ball_gloss"])
+    meshes = [g.Mesh(name="Batsman", primitives=[body_prim]), g.Mesh(name="Ball", primitives=[ball_prim])]
+    if "shadow" in model:
+        meshes.append(g.Mesh(name="BatsmanShadow", primitives=[
+            prim(model["shadow"], model["shadow_gloss"], model["shadow_joints"], model["shadow_weights"])]))
     J = skel.num_joints
     ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
     ibm[:, :3, 3] = -model["bind"]
@@ -608,13 +653,15 @@ def write_glb(model: dict, path: Path) -> None:
                             children=[int(c) for c in skel.children(i)]))
     nodes.append(g.Node(name="Batsman", mesh=0, skin=0))
     nodes.append(g.Node(name="Ball", mesh=1))
+    if len(meshes) > 2:
+        nodes.append(g.Node(name="BatsmanShadow", mesh=2, skin=0))
     roots = [i for i in range(J) if skel.parents[i] < 0]
     gltf = g.GLTF2(
         asset=g.Asset(version="2.0", generator="hitpoint tools/make_batsman.py"),
         scene=0,
-        scenes=[g.Scene(name="Batsman", nodes=roots + [J, J + 1])],
+        scenes=[g.Scene(name="Batsman", nodes=roots + list(range(J, len(nodes))))],
         nodes=nodes,
-        meshes=[g.Mesh(name="Batsman", primitives=[body_prim]), g.Mesh(name="Ball", primitives=[ball_prim])],
+        meshes=meshes,
         skins=[g.Skin(name="rig", joints=list(range(J)), inverseBindMatrices=ibm_acc, skeleton=roots[0])],
         materials=[g.Material(name="vertex_colour",
                               pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=[1, 1, 1, 1],
@@ -643,7 +690,7 @@ def main() -> None:
     out = assets_dir() / "batsman.glb"
     write_glb(model, out)
     print(f"wrote {out}: {len(model['body'].vertices)} vertices, {len(model['body'].faces)} triangles "
-          f"(+ ball {len(model['ball'].faces)})")
+          f"(+ shadow caster {len(model['shadow'].faces)}, ball {len(model['ball'].faces)})")
 
 
 if __name__ == "__main__":

@@ -19,7 +19,8 @@ from . import props
 from .gl import DynamicBuffer, mat_bytes, program, set_uniform
 
 MAX_BONES = 32
-SHADOW_SIZE = 1024
+SHADOW_SIZE = 1024          # the batsman's shadow map, fitted tightly around him
+STATIC_SHADOW_SIZE = 512    # the stumps' (drawn into the cached static layer)
 BACKGROUND = (0.60, 0.74, 0.90)
 
 # Lighting: a high sun on the off side, a little behind the batsman's front.
@@ -120,6 +121,16 @@ class _MeshGPU:
             depth_attrs += [(jb, "4i", "in_joints"), (wb, "4f", "in_weights")]
         self.lit = _vao(ctx, lit_prog, attrs, self.ibo)
         self.depth = _vao(ctx, depth_prog, depth_attrs, self.ibo)
+        self.shadow = self.depth
+
+
+def _shadow_caster(ctx, mesh, depth_prog):
+    """Depth-only VAO of a coarse skinned mesh (positions, joints, weights, indices)."""
+    bufs = [ctx.buffer(np.ascontiguousarray(a, dtype=dt).tobytes()) for a, dt in (
+        (mesh.positions, "f4"), (mesh.joints, "i4"), (mesh.weights, "f4"), (mesh.indices, "u4"))]
+    vao = _vao(ctx, depth_prog, [(bufs[0], "3f", "in_pos"), (bufs[1], "4i", "in_joints"),
+                                 (bufs[2], "4f", "in_weights")], bufs[3])
+    return vao, bufs
 
 
 class SceneRenderer:
@@ -148,8 +159,13 @@ class SceneRenderer:
         self.p_ghost = program(ctx, "ghost_composite.vert", "ghost_composite.frag")
 
         self.body = _MeshGPU(ctx, self.body_mesh, self.p_skin, self.p_depth_skin, True)
+        self.shadow_mesh = meshes.get("BatsmanShadow")
+        if self.shadow_mesh is not None and self.shadow_mesh.joints is not None:
+            # the coarse copy casts the shadow (a third of the triangles, the same outline)
+            self.body.shadow, self._shadow_bufs = _shadow_caster(ctx, self.shadow_mesh, self.p_depth_skin)
         self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static, False)
-        self.wickets = _MeshGPU(ctx, props.wickets(), self.p_static, self.p_depth_static, False)
+        self.wickets_mesh = props.wickets()
+        self.wickets = _MeshGPU(ctx, self.wickets_mesh, self.p_static, self.p_depth_static, False)
         self.target = _MeshGPU(ctx, props.target_disc(), self.p_static, self.p_depth_static, False)
 
         gpos, gcol = props.ground()
@@ -162,10 +178,8 @@ class SceneRenderer:
                                                  (self.stadium_bufs[1], "3f", "in_color")])
         self.sky = ctx.vertex_array(self.p_sky, [])
 
-        self.shadow_tex = ctx.depth_texture((SHADOW_SIZE, SHADOW_SIZE))
-        self.shadow_tex.compare_func = "<="
-        self.shadow_tex.repeat_x = self.shadow_tex.repeat_y = False
-        self.shadow_fbo = ctx.framebuffer(depth_attachment=self.shadow_tex)
+        self.shadow_tex, self.shadow_fbo = _shadow_target(ctx, SHADOW_SIZE)
+        self.static_shadow_tex, self.static_shadow_fbo = _shadow_target(ctx, STATIC_SHADOW_SIZE)
 
         self.receiver_buf = DynamicBuffer(ctx, 6 * 12)
         self.receiver = ctx.vertex_array(self.p_receiver, [(self.receiver_buf.buffer, "3f", "in_pos")])
@@ -178,7 +192,11 @@ class SceneRenderer:
         self._joint_boxes = joint_boxes(self.body_mesh, rig.skeleton.num_joints)
         self._static = _Layer()     # sky, ground, stadium, wickets for one camera and size
         self._ghost = _Layer()      # the translucent ghost's nearest surface (colour + depth)
-        self._static_light = self._light_matrix(None)
+        lo, hi = self.wickets_mesh.positions.min(0), self.wickets_mesh.positions.max(0)
+        near_stumps = np.array(np.meshgrid(*zip(lo, (hi[0], hi[1], min(hi[2], 50.0))))).reshape(3, -1).T
+        self._static_fit = fit_sun(near_stumps, STATIC_SHADOW_SIZE)   # the batting end's stumps
+        self._shadow_fit = (self._static_fit[0], None)
+        self._shadow_key = ()
         self._static_setup()
 
     # ------------------------------------------------------------------ setup
@@ -186,7 +204,7 @@ class SceneRenderer:
         for p in (self.p_skin, self.p_static, self.p_ground, self.p_receiver):
             for k, v in LIGHTING.items():
                 set_uniform(p, k, v)
-            set_uniform(p, "u_shadow_texel", 1.0 / SHADOW_SIZE)
+            set_uniform(p, "u_shadow_texel", 1.0 / SHADOW_SIZE)   # receiver: set per use
             set_uniform(p, "u_shadow_map", 0)
         light, tint = ground_light()
         set_uniform(self.p_ground, "u_light", light)
@@ -212,62 +230,102 @@ class SceneRenderer:
         m = np.asarray(skin_matrices, float)
         return np.einsum("jab,jb->ja", m[:, :3, :3], self.bind_positions) + m[:, :3, 3]
 
-    # ------------------------------------------------------------------ passes
-    def _light_matrix(self, view: SceneView | None) -> np.ndarray:
-        """Orthographic sun view-projection fitted around the stumps, the batsman and a near ball."""
-        pts = [np.array([[0.0, 0.0, 0.0], [0.0, 72.0, 0.0]])]
-        if view is not None and view.skin_matrices is not None:
-            pts.append(self.joint_positions(view.skin_matrices))
-        if view is not None and view.ball_position is not None:
-            b = np.asarray(view.ball_position, float)[None]
-            if pts[-1].size and np.linalg.norm(b - pts[-1].mean(0)) < 400:
-                pts.append(b)
-        pts = np.concatenate(pts)
-        centre = 0.5 * (pts.min(0) + pts.max(0))
-        radius = float(np.clip(np.linalg.norm(pts - centre, axis=1).max() + 60.0, 120.0, 700.0))
-        light_view = look_at(centre + SUN_DIR * 2000.0, centre, (0.0, 1.0, 0.0))
-        # snap to whole texels so the shadow edge does not shimmer as the pose moves
-        texel = 2 * radius / SHADOW_SIZE
-        light_view[:2, 3] = np.round(light_view[:2, 3] / texel) * texel
-        return orthographic(radius, radius, 2000.0 - 3 * radius, 2000.0 + 3 * radius) @ light_view
+    # ------------------------------------------------------------------ shadows
+    def _caster_points(self, view: SceneView) -> np.ndarray:
+        """Points ``(N,3)`` bounding the dynamic shadow casters: the corners of the batsman's
+        skinned per-joint boxes and a box round the ball when it is near him."""
+        pts = []
+        if view.skin_matrices is not None:
+            pts.append(skinned_box_corners(view.skin_matrices, self._joint_boxes))
+        if view.ball_position is not None:
+            b = np.asarray(view.ball_position, float)
+            if not pts or np.linalg.norm(b - pts[0].mean(0)) < 400:
+                pts.append(b + np.array(np.meshgrid(*[[-4.0, 4.0]] * 3)).reshape(3, -1).T)
+        return np.concatenate(pts) if pts else np.zeros((0, 3))
 
-    def _draw_shadow(self, view: SceneView | None, light_vp: np.ndarray) -> None:
-        """Depth from the sun: the batsman and the ball (dynamic) and the stumps; ``view``
-        None draws the stumps alone (for the cached static layer)."""
+    def _update_shadow(self, view: SceneView):
+        """The batsman's (and a near ball's) shadow map, redrawn only when the pose or the ball
+        moved. Returns (light view-projection, ground quad ``(6,3)`` under the shadow or None)."""
+        key = (None if view.skin_matrices is None else np.asarray(view.skin_matrices, np.float32).tobytes(),
+               None if view.ball_position is None else np.asarray(view.ball_position, np.float32).tobytes())
+        if key != self._shadow_key:
+            pts = self._caster_points(view)
+            if len(pts):
+                self._shadow_fit = fit_sun(pts, SHADOW_SIZE)
+            else:
+                self._shadow_fit = (self._static_fit[0], None)
+            self._draw_shadow_map(self.shadow_fbo, SHADOW_SIZE, self._shadow_fit[0], view, False)
+            self._shadow_key = key
+        return self._shadow_fit
+
+    def _draw_shadow_map(self, fbo, size: int, light_vp: np.ndarray, view: SceneView | None, wickets: bool) -> None:
+        """Depth from the sun into ``fbo``: the batsman and the ball of ``view``, or the stumps."""
         ctx = self.ctx
-        self.shadow_fbo.use()
-        ctx.viewport = (0, 0, SHADOW_SIZE, SHADOW_SIZE)
-        self.shadow_fbo.clear(depth=1.0)
+        fbo.use()
+        ctx.viewport = (0, 0, size, size)
+        fbo.clear(depth=1.0)
         ctx.polygon_offset = (2.0, 4.0)
         set_uniform(self.p_depth_skin, "u_view_proj", light_vp)
         set_uniform(self.p_depth_static, "u_view_proj", light_vp)
         if view is not None and view.skin_matrices is not None:
             self._upload_bones(self.p_depth_skin, view.skin_matrices)
-            self.body.depth.render()
-        set_uniform(self.p_depth_static, "u_model", np.eye(4, dtype=np.float32))
-        self.wickets.depth.render()
+            self.body.shadow.render()
+        if wickets:
+            set_uniform(self.p_depth_static, "u_model", np.eye(4, dtype=np.float32))
+            self.wickets.depth.render()
         if view is not None and view.ball_position is not None:
             set_uniform(self.p_depth_static, "u_model", props.translation(view.ball_position))
             self.ball.depth.render()
         ctx.polygon_offset = (0.0, 0.0)
 
-    def _frame_uniforms(self, vp, eye, light_vp, shadows: bool) -> None:
-        self.shadow_tex.use(0)
+    def _draw_receiver(self, quad: np.ndarray, shadow_tex, size: int) -> None:
+        """Multiply the ground by the shadow map inside ``quad`` (6 points on y = 0) only,
+        depth-tested so things standing on the ground (stumps) are not darkened."""
+        import moderngl
+
+        self.receiver_buf.update(np.asarray(quad, np.float32).tobytes())
+        ctx = self.ctx
+        shadow_tex.use(0)
+        set_uniform(self.p_receiver, "u_shadow_texel", 1.0 / size)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.DST_COLOR, moderngl.ZERO
+        ctx.depth_func = "<="
+        ctx.depth_mask = False
+        ctx.polygon_offset = (-1.0, -4.0)
+        self.receiver.render(vertices=6)
+        ctx.polygon_offset = (0.0, 0.0)
+        ctx.depth_mask = True
+        ctx.depth_func = "<"
+        ctx.disable(moderngl.BLEND)
+
+    # ------------------------------------------------------------------ passes
+    def _frame_uniforms(self, vp, eye, light_vp, shadows: bool, shadow_tex) -> None:
+        shadow_tex.use(0)
         for p in (self.p_skin, self.p_static, self.p_ground, self.p_receiver):
             set_uniform(p, "u_view_proj", vp)
             set_uniform(p, "u_eye", eye)
             set_uniform(p, "u_light_vp", light_vp)
             set_uniform(p, "u_shadow_on", 1.0 if shadows else 0.0)
 
-    def _draw_static(self, view: SceneView, vp, eye, shadows: bool) -> None:
-        """Ground (painter's order, unshadowed), stumps, stadium and sky into the bound framebuffer."""
+    def _draw_static(self, view: SceneView, fbo, vp, eye, shadows: bool) -> None:
+        """Ground (painter's order) with the stumps' shadow, the stumps, stadium and sky into
+        ``fbo`` (cleared first). The stumps' shadow map is drawn here too."""
         import moderngl
 
         ctx = self.ctx
+        light_vp, quad = self._static_fit
+        if shadows:
+            self._draw_shadow_map(self.static_shadow_fbo, STATIC_SHADOW_SIZE, light_vp, None, True)
+        fbo.use()
+        ctx.viewport = (0, 0, *view.size)
+        fbo.clear(*BACKGROUND, 1.0, depth=1.0)
+        self._frame_uniforms(vp, eye, light_vp, shadows, self.static_shadow_tex)
         if view.show_pitch:
             ctx.depth_func = "1"
             self.ground.render()
             ctx.depth_func = "<"
+            if shadows:
+                self._draw_receiver(quad, self.static_shadow_tex, STATIC_SHADOW_SIZE)
         ctx.enable(moderngl.CULL_FACE)
         set_uniform(self.p_static, "u_mode", 0)
         set_uniform(self.p_static, "u_model", np.eye(4, dtype=np.float32))
@@ -289,26 +347,21 @@ class SceneRenderer:
         key = (tuple(view.size), samples, np.asarray(view.view, np.float32).tobytes(),
                np.asarray(view.proj, np.float32).tobytes(), bool(view.show_pitch), shadows)
         layer = self._static
-        if layer.key == key:
-            return layer.fbo
-        fbo = layer.framebuffer(self.ctx, tuple(view.size), samples, textures=False)
-        if shadows:   # the stumps shadow themselves in the cached image (the batsman does not)
-            self._draw_shadow(None, self._static_light)
-        fbo.use()
-        self.ctx.viewport = (0, 0, *view.size)
-        fbo.clear(*BACKGROUND, 1.0, depth=1.0)
-        self._frame_uniforms(vp, eye, self._static_light, shadows)
-        self._draw_static(view, vp, eye, shadows)
-        layer.key = key
-        return fbo
+        if layer.key != key:
+            fbo = layer.framebuffer(self.ctx, tuple(view.size), samples, textures=False)
+            self._draw_static(view, fbo, vp, eye, shadows)
+            layer.key = key
+        return layer.fbo
 
     def render(self, view: SceneView, fbo=None) -> None:
         """Draw the scene into ``fbo`` (default: the screen), including the shadow pass.
 
-        The static scene (sky, ground, stadium, stumps) is drawn once per camera and size into
-        a cached colour + depth layer and copied in; per frame only the batsman's shadow (a
-        receiver over the ground), the batsman, ball, target, overlays and the (cached) ghost
-        are drawn over it.
+        The static scene (sky, ground with the stumps' shadow, stadium, stumps) is drawn once
+        per camera and size into a cached colour + depth layer and copied in. Per frame only
+        the batsman's shadow map (redrawn when the pose or the ball moves) and its receiver
+        quad over the ground, the batsman, ball, target, overlays and the ghost (a cached
+        layer, redrawn when the source pose or camera changes) are drawn over it. Cached
+        stumps do not take the batsman's shadow.
         """
         import moderngl
 
@@ -325,21 +378,18 @@ class SceneRenderer:
         shadows = bool(view.shadows)
         static = self._static_layer(view, target_fbo, vp, eye, shadows)
         ghost = self._ghost_layer(view, vp, eye) if static is not None else None
-        light_vp = self._light_matrix(view)
-        if shadows:
-            self._draw_shadow(view, light_vp)
+        if static is None:
+            self._draw_static(view, target_fbo, vp, eye, shadows)
+        light_vp, quad = self._update_shadow(view) if shadows else (self._static_fit[0], None)
 
         target_fbo.use()
         ctx.viewport = (0, 0, w, h)
-        self._frame_uniforms(vp, eye, light_vp, shadows)
         if static is not None:
             ctx.copy_framebuffer(target_fbo, static)
             target_fbo.use()
-        else:
-            target_fbo.clear(*BACKGROUND, 1.0, depth=1.0)
-            self._draw_static(view, vp, eye, shadows)
-        if view.show_pitch and shadows:
-            self._draw_receiver(light_vp)
+        self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
+        if view.show_pitch and quad is not None:
+            self._draw_receiver(quad, self.shadow_tex, SHADOW_SIZE)
         # every mesh is closed with outward winding (the helmet has a lining): cull back faces
         ctx.enable(moderngl.CULL_FACE)
         if view.skin_matrices is not None:
@@ -370,31 +420,6 @@ class SceneRenderer:
             ctx.disable(moderngl.CULL_FACE)
         ctx.disable(moderngl.BLEND)
         ctx.depth_func = "<"
-
-    def _draw_receiver(self, light_vp: np.ndarray) -> None:
-        """Multiply the ground by the shadow inside the shadow map's footprint only."""
-        import moderngl
-
-        inv = np.linalg.inv(light_vp.astype(float))
-        corners = np.array([[-1, -1, -1, 1], [1, -1, -1, 1], [1, 1, -1, 1], [-1, 1, -1, 1]], float) @ inv.T
-        corners = corners[:, :3] / corners[:, 3:]
-        t = corners[:, 1] / SUN_DIR[1]           # slide each corner down the light ray to y = 0
-        g = corners - t[:, None] * SUN_DIR
-        g[:, 1] = 0.0
-        quad = g[[0, 1, 2, 0, 2, 3]].astype(np.float32)
-        self.receiver_buf.update(quad.tobytes())
-        ctx = self.ctx
-        ctx.enable(moderngl.BLEND)
-        ctx.blend_func = moderngl.DST_COLOR, moderngl.ZERO
-        # on the ground plane, behind anything standing on it (stumps): depth-tested, no writes
-        ctx.depth_func = "<="
-        ctx.depth_mask = False
-        ctx.polygon_offset = (-1.0, -4.0)
-        self.receiver.render(vertices=6)
-        ctx.polygon_offset = (0.0, 0.0)
-        ctx.depth_mask = True
-        ctx.depth_func = "<"
-        ctx.disable(moderngl.BLEND)
 
     def _ghost_layer(self, view: SceneView, vp, eye):
         """The ghost's nearest surface (colour with alpha, depth) for this camera and pose, drawn
@@ -569,6 +594,47 @@ class SceneRenderer:
             resolve = ctx.framebuffer(color_attachments=[ctx.renderbuffer(size, 4)])
             self._offscreen[key] = (msaa, resolve)
         return self._offscreen[key]
+
+
+def _shadow_target(ctx, size: int):
+    tex = ctx.depth_texture((size, size))
+    tex.compare_func = "<="
+    tex.repeat_x = tex.repeat_y = False
+    return tex, ctx.framebuffer(depth_attachment=tex)
+
+
+def skinned_box_corners(skin_matrices: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """World corners ``(J*8, 3)`` of the per-joint rest boxes ``(J,8,4)`` moved by their joints."""
+    return np.einsum("jab,jkb->jka", np.asarray(skin_matrices, float)[:, :3], boxes).reshape(-1, 3)
+
+
+def fit_sun(points: np.ndarray, size: int, margin: float = 6.0) -> tuple[np.ndarray, np.ndarray]:
+    """Orthographic sun view-projection ``(4,4)`` tightly holding ``points (N,3)`` and their
+    shadows on the ground, and the ground quad ``(6,3)`` (y = 0) that those shadows fall in.
+
+    The square's side is rounded up to 16 cm steps and its centre snapped to whole texels so
+    the shadow's edges do not shimmer while the pose moves."""
+    pts = np.asarray(points, float)
+    ground = pts - (pts[:, 1:2] / SUN_DIR[1]) * SUN_DIR       # slid down the sun's rays to y = 0
+    ground[:, 1] = 0.0
+    centre = pts.mean(0)
+    light_view = look_at(centre + SUN_DIR * 2000.0, centre, (0.0, 1.0, 0.0)).astype(float)
+    both = np.concatenate([pts, ground])
+    ls = both @ light_view[:3, :3].T + light_view[:3, 3]
+    lo, hi = ls.min(0) - margin, ls.max(0) + margin
+    half = np.ceil(max(hi[0] - lo[0], hi[1] - lo[1]) / 32.0) * 16.0
+    texel = 2 * half / size
+    cx, cy = (np.round(0.5 * (lo[:2] + hi[:2]) / texel) * texel)
+    near, far = -hi[2] - margin, -lo[2] + margin
+    proj = np.zeros((4, 4))
+    proj[0, 0], proj[1, 1] = 1 / half, 1 / half
+    proj[0, 3], proj[1, 3] = -cx / half, -cy / half
+    proj[2, 2], proj[2, 3] = -2 / (far - near), -(far + near) / (far - near)
+    proj[3, 3] = 1.0
+    x0, z0 = ground[:, 0].min() - margin, ground[:, 2].min() - margin
+    x1, z1 = ground[:, 0].max() + margin, ground[:, 2].max() + margin
+    corners = np.array([[x0, 0, z0], [x1, 0, z0], [x1, 0, z1], [x0, 0, z1]])
+    return (proj @ light_view).astype(np.float32), corners[[0, 1, 2, 0, 2, 3]].astype(np.float32)
 
 
 class _Layer:
