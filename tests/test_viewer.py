@@ -224,3 +224,61 @@ def test_bad_library_file_is_reported_not_fatal(app, tmp_path):
     assert "library" in app.state.messages[-1][1]
     app.state.status["library"] = "ok"
     run(app, 1)
+
+
+def test_ball_meets_the_bat_at_the_hit_frame(app):
+    s = app.state
+    app.scrub(s.shot.hit_frame)
+    run(app, 1)
+    bat = s.pose.global_positions[s.rig.bat_joint]
+    assert np.allclose(s.ball_position, s.desired_hit_point, atol=1e-6)
+    assert np.linalg.norm(bat - s.ball_position) <= s.adaptation.bat_error_cm + 1e-6
+    before = s.ball_position.copy()
+    app.scrub(s.shot.hit_frame - 2)
+    run(app, 1)
+    incoming = s.ball_position.copy()
+    app.scrub(s.shot.hit_frame + 2)
+    run(app, 1)
+    after = s.ball_position.copy()
+    assert not np.allclose(incoming, before) and not np.allclose(after, before)
+    # moving toward the batsman from the bowler's end before, away after
+    assert incoming[2] > before[2]
+
+
+def test_f12_screenshot_and_frame_export(app, tmp_path, monkeypatch):
+    from app.interaction import KEY_NAMES
+    monkeypatch.chdir(tmp_path)
+    app.interaction.key(KEY_NAMES["f12"], True)
+    app.interaction.key(KEY_NAMES["f12"], False)
+    run(app, 1)
+    pngs = list(tmp_path.glob("hitpoint_*.png"))
+    assert len(pngs) == 1
+    from PIL import Image
+    assert Image.open(pngs[0]).size == SIZE
+    out = tmp_path / "export"
+    frame, errors = app.settings.frame, app.state.errors
+    app.request_export(out)
+    run(app, 1)
+    frames = sorted(out.glob("frame_*.png"))
+    assert len(frames) == app.state.num_frames
+    first, hit = (np.asarray(Image.open(frames[i]), int) for i in (0, app.state.shot.hit_frame))
+    assert first.shape[:2] == (app.state.viewport[3], app.state.viewport[2])
+    assert changed(first, hit).sum() > 200
+    assert app.settings.frame == frame and app.state.errors == errors, app.state.messages
+
+
+def test_scripted_pc_pad_drag_drives_the_pose(app):
+    pad = app.extras["pcpad"]
+    if pad is None:
+        pytest.skip("app.pcpad not present")
+    from app.script import ScriptPlayer
+    run(app, 1)
+    adapted = app.state.pose.global_positions.copy()
+    player = ScriptPlayer([{"type": "pcpad_drag", "frame": 0, "from": [0, 0], "to": [1.5, -1.0], "frames": 5}])
+    run(app, player.last_frame + 1, player)
+    assert app.state.pose_source == "pc pad"
+    assert not np.allclose(app.state.pose.global_positions, adapted)
+    assert np.isfinite(app.state.pose.global_positions).all()
+    pad.release(app.state)
+    run(app, 1)
+    assert app.state.pose_source == "adapted"
