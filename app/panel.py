@@ -44,7 +44,7 @@ def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, extras: d
 
 def _settings_section(settings: ViewerSettings, state: AppState) -> None:
     imgui.separator_text("Shot and solver")
-    _falloff_slider(settings)
+    _falloff_slider(settings, state)
     _shot_choice(settings, state)
     _solver_settings(settings)
 
@@ -74,7 +74,7 @@ def _shot_choice(settings: ViewerSettings, state: AppState) -> None:
         settings.target = np.array([xy[0], xy[1], t[2]])
 
 
-def _falloff_slider(settings: ViewerSettings) -> None:
+def _falloff_slider(settings: ViewerSettings, state: AppState) -> None:
     changed, v = imgui.slider_float("falloff", settings.falloff, *FALLOFF_RANGE, "%.0f cm")
     if changed:
         settings.falloff = v
@@ -87,8 +87,18 @@ def _falloff_slider(settings: ViewerSettings) -> None:
     dl = imgui.get_window_draw_list()
     dl.add_rect_filled(imgui.ImVec2(x0, hi.y - 4), imgui.ImVec2(x1, hi.y), imgui.get_color_u32(
         imgui.ImVec4(0.3, 0.85, 0.4, 0.8)))
+    # Orange tick: the largest falloff that keeps this shot's ends fully FK (2.2.5).
+    adapter = state.adapters.get(state.shot_index)
+    limit = getattr(adapter, "max_falloff", None) if adapter is not None else None
+    if limit is not None and FALLOFF_RANGE[0] <= limit <= FALLOFF_RANGE[1]:
+        tx = lo.x + frame_w * (limit - FALLOFF_RANGE[0]) / span
+        dl.add_line(imgui.ImVec2(tx, lo.y), imgui.ImVec2(tx, hi.y), imgui.get_color_u32(
+            imgui.ImVec4(1.0, 0.6, 0.15, 0.9)), 2.0)
     if imgui.is_item_hovered():
-        imgui.set_tooltip("IK falloff distance (section 2.2.5); green: the useful 70-110 cm band")
+        tip = "IK falloff distance (section 2.2.5); green: the useful 70-110 cm band"
+        if limit is not None:
+            tip += f"\norange: {limit:.0f} cm, the largest that keeps this shot's ends fully FK"
+        imgui.set_tooltip(tip)
 
 
 def _solver_settings(settings: ViewerSettings) -> None:
@@ -232,6 +242,9 @@ def _capture_section(settings: ViewerSettings, extras: dict) -> None:
     imgui.same_line()
     if imgui.button("Export shot frames"):
         settings.export_requested = True
+    imgui.same_line()
+    if imgui.button("Reload shots"):
+        settings.reload_requested = True
     last = extras.get("last_capture")
     if last:
         imgui.push_text_wrap_pos(0.0)

@@ -54,6 +54,7 @@ class ViewerSettings:
     # capture requests, consumed by the loop
     screenshot_requested: bool = False
     export_requested: bool = False
+    reload_requested: bool = False    # re-read the shot library (a bad file keeps the old one)
 
     def sanitise(self) -> None:
         """Clamp everything into range (scripts and sliders can send anything)."""

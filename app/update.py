@@ -26,7 +26,8 @@ def load_library(state: AppState, manifest=None) -> bool:
             raise ValueError("the shot library is empty")
     except Exception as e:  # a bad file: say so, keep the last good library
         state.report(f"library: {e}")
-        state.status["library"] = str(e).splitlines()[0] if str(e) else type(e).__name__
+        if not state.shots:   # nothing to fall back on: keep saying so
+            state.status["library"] = str(e).splitlines()[0] if str(e) else type(e).__name__
         return False
     state.rig, state.shots = rig, shots
     state.hit_points = np.array([s.hit_point for s in shots], float)

@@ -56,6 +56,7 @@ class App:
         from app.window import Window
         self.stats = FrameStats(started_at)
         self.headless = headless
+        self.manifest = manifest
         self.window = Window(size, visible=not headless)
         self.stats.mark_window()
         self.ctx: moderngl.Context = self.window.ctx
@@ -154,6 +155,9 @@ class App:
         draw_timeline(self.settings, self.state, rects["timeline"])
         imgui.render()
         t_ui = time.perf_counter()
+        if self.settings.reload_requested:
+            self.settings.reload_requested = False
+            load_library(self.state, self.manifest)
 
         update(self.state, self.settings, dt)
         self._pc_pad_pose()

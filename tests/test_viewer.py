@@ -222,8 +222,12 @@ def test_bad_library_file_is_reported_not_fatal(app, tmp_path):
     assert not load_library(app.state, bad)
     assert app.state.shots is shots
     assert "library" in app.state.messages[-1][1]
-    app.state.status["library"] = "ok"
     run(app, 1)
+    assert app.state.status["library"] == "ok"
+    app.settings.reload_requested = True          # the panel's "Reload shots" button
+    run(app, 1)
+    assert app.state.shots is not shots and len(app.state.shots) == len(shots)
+    assert app.state.adaptation is not None
 
 
 def test_ball_meets_the_bat_at_the_hit_frame(app):
