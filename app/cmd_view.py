@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Optional, Tuple
+from typing import Annotated, Optional, Tuple
 
 import typer
 
@@ -19,14 +19,17 @@ def register(cli: typer.Typer) -> None:
 
 @cli_errors
 def view(
-    size: Tuple[int, int] = typer.Option((1280, 720), "--size", help="Window size W H in pixels."),
-    headless: bool = typer.Option(False, "--headless", help="No visible window (hidden glfw window; "
-                                  "starts Xvfb when there is no DISPLAY)."),
-    frames: int = typer.Option(0, "--frames", help="Headless: frames to run (default: until the script ends, min 60)."),
-    script: Optional[Path] = typer.Option(None, "--script", help="Headless: JSON list of timed input events."),
-    screenshot: Optional[Path] = typer.Option(None, "--screenshot", help="Write the last frame as PNG."),
-    stats: Optional[Path] = typer.Option(None, "--stats", help="Write frame-time statistics as JSON."),
-    library: Optional[Path] = typer.Option(None, "--library", help="Shot library manifest (default: bundled)."),
+    size: Annotated[Tuple[int, int], typer.Option("--size", help="Window size W H in pixels.")] = (1280, 720),
+    headless: Annotated[bool, typer.Option("--headless", help="No visible window (hidden glfw window; "
+                                           "starts Xvfb when there is no DISPLAY).")] = False,
+    frames: Annotated[int, typer.Option("--frames", help="Headless: frames to run (default: until the "
+                                        "script ends, min 60).")] = 0,
+    script: Annotated[Optional[Path], typer.Option("--script", help="Headless: JSON list of timed input "
+                                                   "events.")] = None,
+    screenshot: Annotated[Optional[Path], typer.Option("--screenshot", help="Write the last frame as PNG.")] = None,
+    stats: Annotated[Optional[Path], typer.Option("--stats", help="Write frame-time statistics as JSON.")] = None,
+    library: Annotated[Optional[Path], typer.Option("--library", help="Shot library manifest "
+                                                    "(default: bundled).")] = None,
 ):
     """Open the viewer: drag the red-and-white target, the shot adapts every frame."""
     started = time.perf_counter()

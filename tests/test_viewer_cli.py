@@ -65,3 +65,12 @@ def test_bad_options_are_one_line_exit_2(tmp_path):
         r = hitpoint("view", *args)
         assert r.returncode == 2, (args, r.stderr)
         assert r.stderr.startswith("error:") and needle in r.stderr, r.stderr
+
+
+def test_view_is_callable_without_arguments():
+    """Plain ``hitpoint`` invokes ``view()`` directly: every default must be a real value."""
+    import inspect
+    from app.cmd_view import view
+    for name, p in inspect.signature(view).parameters.items():
+        assert p.default is not inspect.Parameter.empty, name
+        assert not type(p.default).__name__.endswith("Info"), name
