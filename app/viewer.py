@@ -8,6 +8,7 @@ its own module; this one only orders them:
 from __future__ import annotations
 
 import time
+from collections import deque
 from pathlib import Path
 
 import moderngl
@@ -80,6 +81,7 @@ class App:
         self._scene_key: str | None = None     # what scene_fbo holds (skip unchanged scenes)
         self.frame_index = 0
         self._last_time = time.perf_counter()
+        self._frame_stamps: deque = deque()
         self._pending_screenshots: list[Path] = []
         self._pending_exports: list[Path] = []
 
@@ -181,10 +183,18 @@ class App:
 
         r = self.state.readouts
         r.render_ms, r.frame_ms = (t_render - t_engine) * 1e3, (t_end - t0) * 1e3
-        r.fps = 0.9 * r.fps + 0.1 * (1.0 / max(dt, 1e-4)) if r.fps else 1.0 / max(dt, 1e-4)
+        r.fps = self._fps(t_end)
         self.stats.record(frame=r.frame_ms, ui=(t_ui - t0) * 1e3, engine=(t_engine - t_ui) * 1e3,
                           render=r.render_ms, compose=(t_end - t_render) * 1e3)
         self.frame_index += 1
+
+    def _fps(self, now: float) -> float:
+        """Frames per wall-clock second over the last second (headless too)."""
+        stamps = self._frame_stamps
+        stamps.append(now)
+        while len(stamps) > 2 and now - stamps[0] > 1.0:
+            stamps.popleft()
+        return (len(stamps) - 1) / max(stamps[-1] - stamps[0], 1e-6) if len(stamps) > 1 else 0.0
 
     def _pc_pad_pose(self) -> None:
         """While the PC pad drives the pose (live marker or a synthesised
