@@ -108,10 +108,24 @@ def choose(state: AppState, settings: ViewerSettings) -> tuple[int, np.ndarray]:
 
 def adapter_for(state: AppState, index: int):
     """The shot's ``engine.adapt.Adapter`` (built once: its __init__ precomputes)."""
-    if index not in state.adapters:
+    if state.adapters.get(index) is None:
         from engine.adapt import Adapter
         state.adapters[index] = Adapter(state.rig, state.shots[index])
     return state.adapters[index]
+
+
+def prewarm(state: AppState) -> bool:
+    """Build one missing shot Adapter (a few ms) so that a later drag which
+    switches shots does not stall on it; True while some were missing."""
+    for index in range(len(state.shots)):
+        if index not in state.adapters:
+            try:
+                adapter_for(state, index)
+            except Exception as e:  # a broken shot: it will report again if chosen
+                state.report(f"engine: {state.shots[index].name}: {type(e).__name__}: {e}")
+                state.adapters[index] = None
+            return True
+    return False
 
 
 def solve(state: AppState, settings: ViewerSettings) -> bool:

@@ -23,7 +23,7 @@ from app.state import AppState
 from app.stats import FrameStats
 from app.submit import build_scene_view, scene_key
 from app.timeline import TIMELINE_HEIGHT, draw_timeline
-from app.update import default_target, load_library, pose_at, ball_at, update
+from app.update import ball_at, default_target, load_library, pose_at, prewarm, update
 
 _BLIT_VS = """
 #version 330
@@ -162,6 +162,8 @@ class App:
             load_library(self.state, self.manifest)
 
         update(self.state, self.settings, dt)
+        if self.interaction.gesture is None and not self.settings.playing:
+            prewarm(self.state)      # idle frames only
         self._pc_pad_pose()
         t_engine = time.perf_counter()
         if not render:
