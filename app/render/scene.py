@@ -19,6 +19,7 @@ from . import props
 from .gl import DynamicBuffer, mat_bytes, program, set_uniform
 
 MAX_BONES = 32
+IDENTITY = np.eye(4, dtype=np.float32)
 SHADOW_SIZE = 1024          # the batsman's shadow map, fitted tightly around him
 STATIC_SHADOW_SIZE = 512    # the stumps' (drawn into the cached static layer)
 BACKGROUND = (0.60, 0.74, 0.90)
@@ -124,13 +125,47 @@ class _MeshGPU:
         self.shadow = self.depth
 
 
-def _shadow_caster(ctx, mesh, depth_prog):
-    """Depth-only VAO of a coarse skinned mesh (positions, joints, weights, indices)."""
-    bufs = [ctx.buffer(np.ascontiguousarray(a, dtype=dt).tobytes()) for a, dt in (
-        (mesh.positions, "f4"), (mesh.joints, "i4"), (mesh.weights, "f4"), (mesh.indices, "u4"))]
-    vao = _vao(ctx, depth_prog, [(bufs[0], "3f", "in_pos"), (bufs[1], "4i", "in_joints"),
-                                 (bufs[2], "4f", "in_weights")], bufs[3])
-    return vao, bufs
+class _PosedBody:
+    """The batsman skinned on the CPU once per pose (``app.render.skinning``) into dynamic
+    buffers drawn by the static programs: the lit mesh and the coarse shadow caster."""
+
+    def __init__(self, ctx, body_mesh, caster_mesh, lit_prog, depth_prog):
+        from .skinning import SkinnedMesh
+
+        self.body = SkinnedMesh(body_mesh)
+        self.caster = SkinnedMesh(caster_mesh, with_normals=False) if caster_mesh is not None else None
+        V = len(body_mesh.positions)
+        self.pos = ctx.buffer(reserve=V * 12, dynamic=True)
+        self.nrm = ctx.buffer(reserve=V * 12, dynamic=True)
+        self.static = [ctx.buffer(np.ascontiguousarray(a, dtype="f4").tobytes())
+                       for a in (body_mesh.colors, body_mesh.gloss)]
+        self.ibo = ctx.buffer(np.ascontiguousarray(body_mesh.indices, dtype="u4").tobytes())
+        self.lit = _vao(ctx, lit_prog, [(self.pos, "3f", "in_pos"), (self.nrm, "3f", "in_normal"),
+                                        (self.static[0], "4f", "in_color"), (self.static[1], "1f", "in_gloss")],
+                        self.ibo)
+        if self.caster is not None:
+            self.caster_pos = ctx.buffer(reserve=len(caster_mesh.positions) * 12, dynamic=True)
+            self.caster_ibo = ctx.buffer(np.ascontiguousarray(caster_mesh.indices, dtype="u4").tobytes())
+            self.shadow = _vao(ctx, depth_prog, [(self.caster_pos, "3f", "in_pos")], self.caster_ibo)
+        else:
+            self.caster_pos = None
+            self.shadow = _vao(ctx, depth_prog, [(self.pos, "3f", "in_pos")], self.ibo)
+        self.key = None
+
+    def update(self, skin_matrices: np.ndarray) -> None:
+        """Skin and upload for ``skin_matrices (J,4,4)`` unless that pose is already there."""
+        m = np.ascontiguousarray(skin_matrices, np.float32)
+        key = m.tobytes()
+        if key == self.key:
+            return
+        pos, nrm = self.body.pose(m)
+        for buf, data in ((self.pos, pos), (self.nrm, nrm)):
+            buf.orphan()
+            buf.write(data)
+        if self.caster is not None:
+            self.caster_pos.orphan()
+            self.caster_pos.write(self.caster.pose(m)[0])
+        self.key = key
 
 
 class SceneRenderer:
@@ -158,11 +193,12 @@ class SceneRenderer:
         self.p_point = program(ctx, "line.vert", "point.frag", "point.geom")
         self.p_ghost = program(ctx, "ghost_composite.vert", "ghost_composite.frag")
 
-        self.body = _MeshGPU(ctx, self.body_mesh, self.p_skin, self.p_depth_skin, True)
+        self.body = _MeshGPU(ctx, self.body_mesh, self.p_skin, self.p_depth_skin, True)   # GPU-skinned: the ghost
         self.shadow_mesh = meshes.get("BatsmanShadow")
-        if self.shadow_mesh is not None and self.shadow_mesh.joints is not None:
-            # the coarse copy casts the shadow (a third of the triangles, the same outline)
-            self.body.shadow, self._shadow_bufs = _shadow_caster(ctx, self.shadow_mesh, self.p_depth_skin)
+        if self.shadow_mesh is not None and self.shadow_mesh.joints is None:
+            self.shadow_mesh = None
+        # the posed batsman; the coarse copy casts the shadow (a third of the triangles, the same outline)
+        self.posed = _PosedBody(ctx, self.body_mesh, self.shadow_mesh, self.p_static, self.p_depth_static)
         self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static, False)
         self.wickets_mesh = props.wickets()
         self.wickets = _MeshGPU(ctx, self.wickets_mesh, self.p_static, self.p_depth_static, False)
@@ -265,13 +301,12 @@ class SceneRenderer:
         ctx.viewport = (0, 0, size, size)
         fbo.clear(depth=1.0)
         ctx.polygon_offset = (2.0, 4.0)
-        set_uniform(self.p_depth_skin, "u_view_proj", light_vp)
         set_uniform(self.p_depth_static, "u_view_proj", light_vp)
+        set_uniform(self.p_depth_static, "u_model", IDENTITY)
         if view is not None and view.skin_matrices is not None:
-            self._upload_bones(self.p_depth_skin, view.skin_matrices)
-            self.body.shadow.render()
+            self.posed.update(view.skin_matrices)
+            self.posed.shadow.render()
         if wickets:
-            set_uniform(self.p_depth_static, "u_model", np.eye(4, dtype=np.float32))
             self.wickets.depth.render()
         if view is not None and view.ball_position is not None:
             set_uniform(self.p_depth_static, "u_model", props.translation(view.ball_position))
@@ -392,11 +427,11 @@ class SceneRenderer:
             self._draw_receiver(quad, self.shadow_tex, SHADOW_SIZE)
         # every mesh is closed with outward winding (the helmet has a lining): cull back faces
         ctx.enable(moderngl.CULL_FACE)
-        if view.skin_matrices is not None:
-            set_uniform(self.p_skin, "u_mode", 0)
-            self._upload_bones(self.p_skin, view.skin_matrices)
-            self.body.lit.render()
         set_uniform(self.p_static, "u_mode", 0)
+        if view.skin_matrices is not None:
+            self.posed.update(view.skin_matrices)
+            set_uniform(self.p_static, "u_model", IDENTITY)
+            self.posed.lit.render()
         if view.ball_position is not None:
             set_uniform(self.p_static, "u_model", props.translation(view.ball_position))
             self.ball.lit.render()
