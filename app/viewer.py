@@ -54,11 +54,11 @@ class App:
     def __init__(self, size=(1280, 720), headless: bool = False, manifest=None, started_at=None):
         from imgui_bundle import imgui, implot
         from app.imgui_gl import ImguiRenderer
-        from app.window import Window
+        from app.window import open_window
         self.stats = FrameStats(started_at)
         self.headless = headless
         self.manifest = manifest
-        self.window = Window(size, visible=not headless)
+        self.window = open_window(size, headless)
         self.stats.mark_window()
         self.ctx: moderngl.Context = self.window.ctx
         self.imgui_ctx = imgui.create_context()
@@ -105,6 +105,8 @@ class App:
 
     def _install_callbacks(self) -> None:
         glfw, h, it = self.window.glfw, self.window.handle, self.interaction
+        if glfw is None:   # headless EGL: input comes from scripts only
+            return
         glfw.set_cursor_pos_callback(h, lambda _w, x, y: it.mouse_move(x, y))
         glfw.set_mouse_button_callback(h, lambda _w, b, action, mods: it.mouse_button(b, action == glfw.PRESS))
         glfw.set_scroll_callback(h, lambda _w, dx, dy: it.scroll(dy, dx))

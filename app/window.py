@@ -1,8 +1,11 @@
-"""The OS window and GL context: a glfw window (visible, or hidden for headless
-runs), starting a private Xvfb when there is no display at all (CI).
+"""The OS window and GL context.
 
-A hidden (headless) window's back buffer is not guaranteed to hold pixels,
-so headless frames are composed into an offscreen framebuffer instead.
+Interactive: a glfw window (GLX under X11). Headless: a standalone EGL context
+(Mesa, no display needed, the same kind the renderer's own tests use - mixing
+GLX and EGL contexts in one process makes X refuse the GLX one); when EGL is
+not available, a hidden glfw window on a private Xvfb. Either way the viewer
+runs the same loop; headless frames are composed into an offscreen
+framebuffer, since a hidden window's back buffer need not hold pixels.
 """
 from __future__ import annotations
 
@@ -124,3 +127,50 @@ class Window:
             self.glfw.destroy_window(self.handle)
             self.handle = None
         self.glfw.terminate()
+
+
+class HeadlessWindow:
+    """The Window interface over a standalone EGL context: no OS window, no
+    events (scripts call the input functions directly)."""
+
+    def __init__(self, size: tuple[int, int]):
+        self.glfw = None
+        self.handle = None
+        self.visible = False
+        self.ctx = moderngl.create_standalone_context(require=330, backend="egl")
+        self._size = (int(size[0]), int(size[1]))
+        self.cursor = "arrow"
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self._size
+
+    framebuffer_size = size
+
+    def set_cursor(self, name: str) -> None:
+        self.cursor = name
+
+    def should_close(self) -> bool:
+        return False
+
+    def poll(self) -> None:
+        pass
+
+    def swap(self) -> None:
+        pass
+
+    def close(self) -> None:
+        if self.ctx is not None:
+            self.ctx.release()
+            self.ctx = None
+
+
+def open_window(size: tuple[int, int], headless: bool):
+    """A visible glfw window, or for headless runs an EGL context (falling
+    back to a hidden glfw window, on Xvfb if there is no display)."""
+    if not headless:
+        return Window(size, visible=True)
+    try:
+        return HeadlessWindow(size)
+    except Exception:   # no EGL: a hidden X window instead
+        return Window(size, visible=False)
