@@ -20,8 +20,8 @@ def register(cli: typer.Typer) -> None:
 @cli_errors
 def view(
     size: Annotated[Tuple[int, int], typer.Option("--size", help="Window size W H in pixels.")] = (1280, 720),
-    headless: Annotated[bool, typer.Option("--headless", help="No visible window (hidden glfw window; "
-                                           "starts Xvfb when there is no DISPLAY).")] = False,
+    headless: Annotated[bool, typer.Option("--headless", help="No window: an EGL context (or a hidden "
+                                           "window, on a private Xvfb if there is no DISPLAY).")] = False,
     frames: Annotated[int, typer.Option("--frames", help="Headless: frames to run (default: until the "
                                         "script ends, min 60).")] = 0,
     script: Annotated[Optional[Path], typer.Option("--script", help="Headless: JSON list of timed input "

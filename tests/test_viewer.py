@@ -1,6 +1,7 @@
-"""The viewer, headless (hidden glfw window; a private Xvfb when there is no
-display): the default scene's pixels, dragging the target through the mouse
-path, scrubbing, and the panel never covering the 3D view."""
+"""The viewer, headless (standalone EGL context; same loop, UI and input code
+as the window): the default scene's pixels, dragging the target through the
+mouse path, scrubbing, keys, capture, errors, and the panel never covering
+the 3D view."""
 import numpy as np
 import pytest
 
