@@ -20,7 +20,7 @@ from .gl import DynamicBuffer, mat_bytes, program, set_uniform
 
 MAX_BONES = 32
 IDENTITY = np.eye(4, dtype=np.float32)
-SHADOW_SIZE = 1024          # the batsman's shadow map, fitted tightly around him
+SHADOW_SIZE = 384          # the batsman's shadow map, fitted tightly around him
 STATIC_SHADOW_SIZE = 512    # the stumps' (drawn into the cached static layer)
 BACKGROUND = (0.60, 0.74, 0.90)
 
@@ -423,8 +423,6 @@ class SceneRenderer:
             ctx.copy_framebuffer(target_fbo, static)
             target_fbo.use()
         self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
-        if view.show_pitch and quad is not None:
-            self._draw_receiver(quad, self.shadow_tex, SHADOW_SIZE)
         # every mesh is closed with outward winding (the helmet has a lining): cull back faces
         ctx.enable(moderngl.CULL_FACE)
         set_uniform(self.p_static, "u_mode", 0)
@@ -442,6 +440,9 @@ class SceneRenderer:
             self.target.lit.render()
             set_uniform(self.p_static, "u_emissive", (0.0, 0.0, 0.0))
         ctx.disable(moderngl.CULL_FACE)
+        if view.show_pitch and quad is not None:
+            # after the opaque meshes: early-z skips the ground they cover
+            self._draw_receiver(quad, self.shadow_tex, SHADOW_SIZE)
 
         # overlays and ghost (blended)
         ctx.enable(moderngl.BLEND)
@@ -666,9 +667,13 @@ def fit_sun(points: np.ndarray, size: int, margin: float = 6.0) -> tuple[np.ndar
     proj[0, 3], proj[1, 3] = -cx / half, -cy / half
     proj[2, 2], proj[2, 3] = -2 / (far - near), -(far + near) / (far - near)
     proj[3, 3] = 1.0
-    x0, z0 = ground[:, 0].min() - margin, ground[:, 2].min() - margin
-    x1, z1 = ground[:, 0].max() + margin, ground[:, 2].max() + margin
-    corners = np.array([[x0, 0, z0], [x1, 0, z0], [x1, 0, z1], [x0, 0, z1]])
+    # the ground quad: a rectangle along the sun's azimuth (shadows stretch that way)
+    along = np.array([SUN_DIR[0], SUN_DIR[2]]) / np.hypot(SUN_DIR[0], SUN_DIR[2])
+    axes = np.array([along, [-along[1], along[0]]])
+    uv = ground[:, [0, 2]] @ axes.T
+    (u0, v0), (u1, v1) = uv.min(0) - margin, uv.max(0) + margin
+    xz = np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]]) @ axes
+    corners = np.stack([xz[:, 0], np.zeros(4), xz[:, 1]], 1)
     return (proj @ light_view).astype(np.float32), corners[[0, 1, 2, 0, 2, 3]].astype(np.float32)
 
 
