@@ -42,6 +42,8 @@ def view(
     if script is not None:
         from app.script import ScriptPlayer, load_script
         player = ScriptPlayer(load_script(script), str(script))
+    if library is not None and not library.is_file():
+        raise UserError(f"{library}: shot library not found")
     for out in (screenshot, stats):
         if out is not None and not out.resolve().parent.is_dir():
             raise UserError(f"{out}: folder does not exist")

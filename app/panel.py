@@ -140,7 +140,11 @@ def _playback_section(settings: ViewerSettings, state: AppState) -> None:
                                     imgui.SliderFlags_.logarithmic)
     if changed:
         settings.speed = v
-    imgui.text_colored(DIM, "space play, <- -> step, H hit frame, S slow, [ ] speed, F12 shot")
+    imgui.push_text_wrap_pos(0.0)
+    imgui.text_colored(DIM, "space play/pause, <- -> step, H hit frame, S slow motion, [ ] speed, "
+                            "F12 screenshot, R reset view; drag the target, right/left drag orbit, "
+                            "middle or shift drag pan, wheel zoom")
+    imgui.pop_text_wrap_pos()
 
 
 def _overlay_section(settings: ViewerSettings) -> None:
@@ -242,8 +246,7 @@ def _capture_section(settings: ViewerSettings, extras: dict) -> None:
     imgui.same_line()
     if imgui.button("Export shot frames"):
         settings.export_requested = True
-    imgui.same_line()
-    if imgui.button("Reload shots"):
+    if imgui.button("Reload shot library"):
         settings.reload_requested = True
     last = extras.get("last_capture")
     if last:

@@ -91,8 +91,7 @@ def scene_key(view) -> str:
     return h.hexdigest()
 
 
-def _skin(pose, state: AppState, skinning_matrices) -> np.ndarray:
+def _skin(pose, state: AppState, skinning_matrices) -> np.ndarray | None:
     if pose is None or state.bind_positions is None:
-        J = state.rig.skeleton.num_joints if state.rig is not None else 1
-        return np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
+        return None       # nothing to pose (no library): the renderer draws no batsman
     return skinning_matrices(pose.global_rotations, pose.global_positions, state.bind_positions)

@@ -20,7 +20,7 @@ def load_library(state: AppState, manifest=None) -> bool:
         from engine.library import load_library as _load
         from engine.rig import default_rig
         from engine.skeleton import bind_positions
-        rig = state.rig or default_rig()
+        rig = state.rig = state.rig or default_rig()   # the stage still draws without shots
         shots = _load(manifest, rig=rig)
         if not shots:
             raise ValueError("the shot library is empty")

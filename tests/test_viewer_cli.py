@@ -61,6 +61,7 @@ def test_bad_options_are_one_line_exit_2(tmp_path):
     for args, needle in [(["--headless", "--size", "10", "10"], "--size"),
                          (["--headless", "--script", str(tmp_path / "missing.json")], "missing.json"),
                          (["--frames", "3"], "--headless"),
+                         (["--headless", "--library", str(tmp_path / "none.json")], "none.json"),
                          (["--headless", "--stats", str(tmp_path / "no" / "s.json")], "folder")]:
         r = hitpoint("view", *args)
         assert r.returncode == 2, (args, r.stderr)
