@@ -9,8 +9,8 @@ import time
 import numpy as np
 from imgui_bundle import imgui, implot
 
-from app.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, SOLVERS,
-                          SPEED_RANGE, TOLERANCE_RANGE, ViewerSettings)
+from app.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, RENDER_SCALE_RANGE,
+                          SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, ViewerSettings)
 from app.state import AppState
 
 PANEL_WIDTH = 360
@@ -151,6 +151,11 @@ def _overlay_section(settings: ViewerSettings) -> None:
     if not imgui.collapsing_header("Overlays"):
         return
     o = settings.overlays
+    changed, v = imgui.slider_float("render scale", settings.render_scale, *RENDER_SCALE_RANGE, "%.2f")
+    if changed:
+        settings.render_scale = v
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("3D view resolution relative to the window (lower it on a slow GPU)")
     imgui.text("source pose")
     for mode in GHOST_MODES:
         imgui.same_line()

@@ -13,6 +13,7 @@ FALLOFF_BAND = (70.0, 110.0)
 ITERATIONS_RANGE = (1, 500)
 TOLERANCE_RANGE = (1e-4, 1.0)       # cm
 SPEED_RANGE = (0.05, 4.0)
+RENDER_SCALE_RANGE = (0.4, 1.0)     # 3D view resolution / window resolution (slow GPUs)
 SLOW_MOTION_FACTOR = 0.25
 GHOST_MODES = ("off", "mesh", "skeleton")
 SOLVERS = ("ccd", "dls")
@@ -51,6 +52,7 @@ class ViewerSettings:
     slow_motion: bool = False
     loop: bool = True
     overlays: Overlays = field(default_factory=Overlays)
+    render_scale: float = 1.0
     # capture requests, consumed by the loop
     screenshot_requested: bool = False
     export_requested: bool = False
@@ -65,6 +67,7 @@ class ViewerSettings:
         self.tolerance = float(np.clip(_finite(self.tolerance, 1e-3), *TOLERANCE_RANGE))
         self.speed = float(np.clip(_finite(self.speed, 1.0), *SPEED_RANGE))
         self.frame = float(max(_finite(self.frame, 0.0), 0.0))
+        self.render_scale = float(np.clip(_finite(self.render_scale, 1.0), *RENDER_SCALE_RANGE))
         t = np.asarray(self.target, float).reshape(-1)[:3]
         self.target = clamp_target(t if t.size == 3 and np.isfinite(t).all() else (0.0, 60.0, 0.0))
         if self.overlays.ghost not in GHOST_MODES:

@@ -125,7 +125,8 @@ class App:
                 if self.frame_fbo is not None:
                     self.frame_fbo.release()
                 self.frame_fbo = self.ctx.simple_framebuffer((fw, fh), components=4)
-        k = self.frame_fbo.width / max(window_size[0], 1)   # HiDPI: framebuffer pixels per window pixel
+        # framebuffer pixels per window pixel (HiDPI), times the user's render scale
+        k = self.frame_fbo.width / max(window_size[0], 1) * self.settings.render_scale
         vw, vh = max(round(viewport[2] * k), 1), max(round(viewport[3] * k), 1)
         if self.scene_fbo is None or self.scene_fbo.size != (vw, vh):
             if self.scene_fbo is not None:
