@@ -50,7 +50,8 @@ def project(v, p):
 
 def render(renderer, v):
     from app.render import render_image
-    return render_image(renderer, v).astype(int)
+    with renderer.ctx:      # current again even after another test made its own context
+        return render_image(renderer, v).astype(int)
 
 
 def changed(a, b, tol=12):
@@ -185,3 +186,48 @@ def test_strip_frames_include_the_hit_frame():
     for n, h, k in ((69, 30, 9), (10, 0, 4), (5, 4, 10), (100, 57, 1)):
         f = strip_frames(n, h, k)
         assert h in f and f == sorted(set(f)) and 0 <= min(f) and max(f) < n and len(f) <= k
+
+
+def test_cpu_skinning_matches_linear_blend(renderer, rig):
+    """The numba skinning the lit pass and the shadow caster use = sum_k w_k M_k p."""
+    from app.render.skinning import SkinnedMesh
+    mesh = renderer.body_mesh
+    _, M = pose(rig, dict(ARMS_DOWN, LeftForeArm=((0, 1, 0), -70)))
+    pos, nrm = SkinnedMesh(mesh).pose(M)
+    M = M.astype(float)
+    p = np.concatenate([mesh.positions, np.ones((len(mesh.positions), 1))], 1)
+    want = np.einsum("vk,vkab,vb->va", mesh.weights, M[mesh.joints], p)[:, :3]
+    want_n = np.einsum("vk,vkab,vb->va", mesh.weights, M[mesh.joints][..., :3, :3], mesh.normals)
+    assert np.allclose(pos, want, atol=1e-3) and np.allclose(nrm, want_n, atol=1e-4)
+
+
+def test_sun_fit_holds_casters_and_their_shadows():
+    from app.render.scene import SUN_DIR, fit_sun
+    pts = np.random.default_rng(1).uniform(-60.0, 180.0, (300, 3))
+    pts[:, 1] = np.abs(pts[:, 1])
+    vp, quad = fit_sun(pts, 384)
+    ground = pts - (pts[:, 1:2] / SUN_DIR[1]) * SUN_DIR
+    ground[:, 1] = 0.0
+    c = np.concatenate([pts, ground]) @ vp[:3, :3].T.astype(float) + vp[:3, 3]
+    assert np.abs(c).max() < 1.0                      # inside the shadow map and its depth range
+    assert np.allclose(quad[:, 1], 0.0)
+    # the receiver quad (a rectangle on the ground) covers every shadow point
+    a, b, d = quad[0, [0, 2]], quad[1, [0, 2]], quad[5, [0, 2]]
+    uv = np.stack([(ground[:, [0, 2]] - a) @ (b - a) / np.dot(b - a, b - a),
+                   (ground[:, [0, 2]] - a) @ (d - a) / np.dot(d - a, d - a)], 1)
+    assert uv.min() >= 0.0 and uv.max() <= 1.0
+
+
+def test_cached_layers_follow_camera_and_ghost(renderer, rig):
+    """The static layer (per camera) and the ghost layer (per pose) never show stale pixels."""
+    from app.render import look_at
+    _, M = pose(rig, ARMS_DOWN)
+    _, G = pose(rig, dict(ARMS_DOWN, LeftArm=((0, 0, 1), 40)))
+    a = view_of(M, ghost_skin_matrices=G)
+    b = dataclasses.replace(a, view=look_at(EYE + np.array([0.0, 80.0, -150.0]), TARGET))
+    first, other, again = render(renderer, a), render(renderer, b), render(renderer, a)
+    assert np.array_equal(first, again) and changed(first, other).sum() > 5000
+    no_ghost = render(renderer, dataclasses.replace(a, ghost_skin_matrices=None))
+    other_ghost = render(renderer, dataclasses.replace(a, ghost_skin_matrices=M))
+    assert changed(first, no_ghost).sum() > 100 and changed(first, other_ghost).sum() > 100
+    assert np.array_equal(render(renderer, a), first)

@@ -644,6 +644,9 @@ def skinned_box_corners(skin_matrices: np.ndarray, boxes: np.ndarray) -> np.ndar
     return np.einsum("jab,jkb->jka", np.asarray(skin_matrices, float)[:, :3], boxes).reshape(-1, 3)
 
 
+_SUN_ROTATION = look_at(SUN_DIR, (0.0, 0.0, 0.0)).astype(float)[:3, :3]   # world -> sun view axes
+
+
 def fit_sun(points: np.ndarray, size: int, margin: float = 6.0) -> tuple[np.ndarray, np.ndarray]:
     """Orthographic sun view-projection ``(4,4)`` tightly holding ``points (N,3)`` and their
     shadows on the ground, and the ground quad ``(6,3)`` (y = 0) that those shadows fall in.
@@ -654,7 +657,9 @@ def fit_sun(points: np.ndarray, size: int, margin: float = 6.0) -> tuple[np.ndar
     ground = pts - (pts[:, 1:2] / SUN_DIR[1]) * SUN_DIR       # slid down the sun's rays to y = 0
     ground[:, 1] = 0.0
     centre = pts.mean(0)
-    light_view = look_at(centre + SUN_DIR * 2000.0, centre, (0.0, 1.0, 0.0)).astype(float)
+    light_view = np.eye(4)                                    # look_at(centre + 2000 sun, centre)
+    light_view[:3, :3] = _SUN_ROTATION
+    light_view[:3, 3] = -_SUN_ROTATION @ (centre + SUN_DIR * 2000.0)
     both = np.concatenate([pts, ground])
     ls = both @ light_view[:3, :3].T + light_view[:3, 3]
     lo, hi = ls.min(0) - margin, ls.max(0) + margin
