@@ -1,7 +1,7 @@
 // Shared lighting: sun (key, casts the shadow) + fill + hemisphere ambient + a little rim,
 // an ACES-style tone curve, gamma 2 and haze toward the horizon colour.
 // llvmpipe is the target: no vec3 pow per pixel (colours are linearised per vertex),
-// one hardware-PCF shadow tap on shaded objects.
+// one hardware-PCF shadow tap on shaded objects (coordinates from the vertex shader).
 uniform vec3 u_eye;
 uniform vec3 u_sun_dir;        // unit, towards the sun
 uniform vec3 u_sun_color;
@@ -11,16 +11,7 @@ uniform vec3 u_sky_ambient;
 uniform vec3 u_ground_ambient;
 uniform vec3 u_haze_color;     // display colour of the sky at the horizon (applied after the tone curve)
 uniform sampler2DShadow u_shadow_map;
-uniform mat4 u_light_vp;
 uniform float u_shadow_on;
-
-float shadow_at(vec3 world_pos, vec3 n) {
-    // normal offset keeps surfaces from shadowing themselves
-    vec3 p = world_pos + n * 1.2 + u_sun_dir * 0.8;
-    vec3 uvz = (u_light_vp * vec4(p, 1.0)).xyz * 0.5 + 0.5;   // orthographic light: w = 1
-    float s = texture(u_shadow_map, uvz);
-    return mix(1.0, s, u_shadow_on);
-}
 
 vec3 shade(vec3 albedo, vec3 n, vec3 world_pos, float gloss, float shadow) {
     vec3 v = normalize(u_eye - world_pos);

@@ -11,6 +11,7 @@ in vec3 v_normal;
 in vec3 v_color;
 in float v_gloss;
 in float v_haze;
+in vec3 v_light;
 out vec4 f_color;
 void main() {
     vec3 n = normalize(v_normal);
@@ -23,7 +24,7 @@ void main() {
         f_color = vec4(mix(u_haze_color, tone(c), v_haze), u_alpha * (0.6 + 0.4 * rim));
         return;
     }
-    float sh = shadow_at(v_world, n);
+    float sh = mix(1.0, texture(u_shadow_map, v_light), u_shadow_on);
     vec3 c = shade(v_color * u_tint, n, v_world, v_gloss, sh) + u_emissive;
     f_color = vec4(mix(u_haze_color, tone(c), v_haze), 1.0);
 }
