@@ -29,8 +29,8 @@ def mat_bytes(m: np.ndarray) -> bytes:
 
 def set_uniform(prog, name: str, value) -> None:
     """Set a uniform if the (optimising) compiler kept it."""
-    if name in prog:
-        u = prog[name]
+    u = prog.get(name, None)      # (``name in prog`` walks every member)
+    if u is not None:
         if isinstance(value, np.ndarray) and value.shape[-2:] == (4, 4):
             u.write(mat_bytes(value))
         elif isinstance(value, (bytes, bytearray)):
