@@ -78,8 +78,8 @@ def count(n: int, low: int = 2) -> int:
 
 
 def subdiv(s: int) -> int:
-    """Icosphere subdivisions at the current detail."""
-    return max(1, s - (1 if _detail < 0.6 else 0))
+    """Icosphere subdivisions at the current detail (the finest level goes first)."""
+    return max(1, s - (1 if _detail < 0.6 or (_detail < 0.7 and s >= 3) else 0))
 
 
 # ----------------------------------------------------------------- geometry
@@ -310,7 +310,7 @@ def torso(rig, W) -> list[Part]:
 def helmet(W) -> list[Part]:
     parts = []
     c, r = np.array([0, 168.5, 1.0]), np.array([12.3, 12.8, 13.6])
-    s = trimesh.creation.icosphere(subdivisions=subdiv(3))
+    s = trimesh.creation.icosphere(subdivisions=3 if _detail >= 0.6 else 2)   # keeps a round highlight
     n = np.asarray(s.vertices)
     fc = n[s.faces].mean(1)
     keep = (fc[:, 1] > 0.30) | ((fc[:, 2] < 0.42) & (fc[:, 1] > -0.55 + 0.5 * np.maximum(fc[:, 2], 0)))
