@@ -47,11 +47,11 @@ class ImguiRenderer:
         imgui.get_platform_io().renderer_texture_max_height = max_size
 
     def _make_vao(self) -> moderngl.VertexArray:
-        stride = imgui.VERTEX_SIZE
-        assert stride == 20 and imgui.VERTEX_BUFFER_COL_OFFSET == 16  # pos 2f, uv 2f, col 4 bytes
-        index_size = 2 if imgui.INDEX_SIZE == 2 else 4
+        assert imgui.VERTEX_SIZE == 20 and imgui.VERTEX_BUFFER_COL_OFFSET == 16  # pos 2f, uv 2f, col 4 bytes
+        # All draw lists go into one vertex and one (32-bit) index buffer per frame:
+        # rewriting a buffer between draws makes llvmpipe wait for the earlier draws.
         return self.ctx.vertex_array(self.prog, [(self.vbo, "2f 2f 4f1", "in_pos", "in_uv", "in_col")],
-                                     index_buffer=self.ibo, index_element_size=index_size)
+                                     index_buffer=self.ibo, index_element_size=4)
 
     # -- textures ---------------------------------------------------------
     def _update_textures(self) -> None:
@@ -93,6 +93,12 @@ class ImguiRenderer:
         width, height = draw_data.display_size
         if width <= 0 or height <= 0:
             return
+        lists = [c for c in draw_data.cmd_lists if c.vtx_buffer.size() and c.idx_buffer.size()]
+        if not lists:
+            return
+        vertices, indices, firsts = self._gather(lists)
+        self._write(self.vbo, vertices)
+        self._write(self.ibo, indices)
         ctx = self.ctx
         fbo.use()
         ctx.viewport = (0, 0, fbo.width, fbo.height)
@@ -105,38 +111,49 @@ class ImguiRenderer:
                          [-(2 * ox + width) / width, (2 * oy + height) / height, 0, 1]], "f4")
         self.prog["proj"].write(proj.tobytes())
         try:
-            for cmd_list in draw_data.cmd_lists:
-                self._draw_list(cmd_list, fbo.height, sx, sy, ox, oy)
+            for cmd_list, first in zip(lists, firsts):
+                for cmd in cmd_list.cmd_buffer:
+                    self._draw(cmd, first, fbo.height, sx, sy, ox, oy)
         finally:
             ctx.scissor = None
             ctx.disable(moderngl.BLEND)
 
-    def _draw_list(self, cmd_list, fb_height: int, sx: float, sy: float, ox: float, oy: float) -> None:
-        vtx_bytes = cmd_list.vtx_buffer.size() * imgui.VERTEX_SIZE
-        idx_bytes = cmd_list.idx_buffer.size() * imgui.INDEX_SIZE
-        if vtx_bytes == 0 or idx_bytes == 0:
-            return
-        self._write(self.vbo, cmd_list.vtx_buffer.data_address(), vtx_bytes)
-        self._write(self.ibo, cmd_list.idx_buffer.data_address(), idx_bytes)
-        for cmd in cmd_list.cmd_buffer:
-            if cmd.elem_count == 0:
-                continue
-            x0, y0, x1, y1 = cmd.clip_rect
-            x0, x1 = (x0 - ox) * sx, (x1 - ox) * sx
-            y0, y1 = (y0 - oy) * sy, (y1 - oy) * sy
-            if x1 <= x0 or y1 <= y0:
-                continue
-            self.ctx.scissor = (int(x0), int(fb_height - y1), int(x1 - x0), int(y1 - y0))
-            tex = self.textures.get(int(cmd.tex_ref.get_tex_id()))
-            if tex is not None:
-                tex.use(0)
-            # Without RendererHasVtxOffset ImGui splits big lists, so vtx_offset is always 0.
-            self.vao.render(moderngl.TRIANGLES, vertices=cmd.elem_count, first=cmd.idx_offset)
+    @staticmethod
+    def _gather(lists):
+        """One vertex array and one uint32 index array for all lists (indices
+        rebased), and each list's first index in the latter."""
+        vtx, idx, firsts = [], [], []
+        base = start = 0
+        itype = np.uint16 if imgui.INDEX_SIZE == 2 else np.uint32
+        for c in lists:
+            nv, ni = c.vtx_buffer.size(), c.idx_buffer.size()
+            vtx.append(bytes((ctypes.c_char * (nv * imgui.VERTEX_SIZE)).from_address(c.vtx_buffer.data_address())))
+            raw = (ctypes.c_char * (ni * imgui.INDEX_SIZE)).from_address(c.idx_buffer.data_address())
+            idx.append(np.frombuffer(raw, itype).astype(np.uint32) + base)
+            firsts.append(start)
+            base, start = base + nv, start + ni
+        return b"".join(vtx), np.concatenate(idx).tobytes(), firsts
 
-    def _write(self, buf: moderngl.Buffer, address: int, nbytes: int) -> None:
-        if nbytes > buf.size:
-            buf.orphan(max(nbytes, buf.size * 2))
-        buf.write((ctypes.c_char * nbytes).from_address(address))
+    def _draw(self, cmd, first: int, fb_height: int, sx: float, sy: float, ox: float, oy: float) -> None:
+        if cmd.elem_count == 0:
+            return
+        x0, y0, x1, y1 = cmd.clip_rect
+        x0, x1 = (x0 - ox) * sx, (x1 - ox) * sx
+        y0, y1 = (y0 - oy) * sy, (y1 - oy) * sy
+        if x1 <= x0 or y1 <= y0:
+            return
+        self.ctx.scissor = (int(x0), int(fb_height - y1), int(x1 - x0), int(y1 - y0))
+        tex = self.textures.get(int(cmd.tex_ref.get_tex_id()))
+        if tex is not None:
+            tex.use(0)
+        # Without RendererHasVtxOffset ImGui splits big lists, so vtx_offset is always 0.
+        self.vao.render(moderngl.TRIANGLES, vertices=cmd.elem_count, first=first + cmd.idx_offset)
+
+    @staticmethod
+    def _write(buf: moderngl.Buffer, data: bytes) -> None:
+        if len(data) > buf.size:
+            buf.orphan(max(len(data), buf.size * 2))
+        buf.write(data)
 
     def release(self) -> None:
         for t in self.textures.values():

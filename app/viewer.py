@@ -16,6 +16,7 @@ import numpy as np
 
 from app import capture
 from app.camera import OrbitCamera
+from app.compose import BACKGROUND, Compositor
 from app.interaction import Interaction
 from app.panel import PANEL_WIDTH, draw_panel, load_pcpad
 from app.settings import ViewerSettings
@@ -25,29 +26,18 @@ from app.submit import build_scene_view, scene_key
 from app.timeline import TIMELINE_HEIGHT, draw_timeline
 from app.update import ball_at, default_target, load_library, pose_at, prewarm, update
 
-_BLIT_VS = """
-#version 330
-in vec2 in_pos; out vec2 uv;
-void main() { uv = in_pos * 0.5 + 0.5; gl_Position = vec4(in_pos, 0.0, 1.0); }
-"""
-_BLIT_FS = """
-#version 330
-uniform sampler2D tex; in vec2 uv; out vec4 color;
-void main() { color = vec4(texture(tex, uv).rgb, 1.0); }
-"""
-BACKGROUND = (0.11, 0.12, 0.14, 1.0)
 
 
 def layout(window_size: tuple[int, int]) -> dict[str, tuple]:
     """Rectangles ``(x, y, w, h)`` in window pixels (top-left origin): the panel
-    docked on the right, the timeline under the viewport, the 3D viewport in
-    what is left (never under the panel)."""
+    docked on the right, the 3D viewport everything left of it (never under
+    the panel), the timeline scrubber along the viewport's bottom edge."""
     W, H = max(int(window_size[0]), 1), max(int(window_size[1]), 1)
     panel_w = min(PANEL_WIDTH, max(W // 2, 1))
     timeline_h = min(TIMELINE_HEIGHT, max(H // 4, 1))
-    view_w, view_h = max(W - panel_w, 1), max(H - timeline_h, 1)
-    return {"panel": (W - panel_w, 0, panel_w, H), "timeline": (0, view_h, view_w, timeline_h),
-            "viewport": (0, 0, view_w, view_h)}
+    view_w = max(W - panel_w, 1)
+    return {"panel": (W - panel_w, 0, panel_w, H), "timeline": (0, H - timeline_h, view_w, timeline_h),
+            "viewport": (0, 0, view_w, H)}
 
 
 class App:
@@ -74,11 +64,8 @@ class App:
         if load_library(self.state, manifest):
             self.settings.target = default_target(self.state)
         self.scene_renderer = self._make_scene_renderer()
-        self._blit_prog = self.ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_BLIT_FS)
-        quad = self.ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
-        self._blit_vao = self.ctx.vertex_array(self._blit_prog, [(quad, "2f", "in_pos")])
-        self.frame_fbo = self.scene_fbo = None
-        self._scene_key: str | None = None     # what scene_fbo holds (skip unchanged scenes)
+        self.compositor = Compositor(self.ctx)
+        self._opaque_windows()
         self.frame_index = 0
         self._last_time = time.perf_counter()
         self._frame_stamps: deque = deque()
@@ -113,31 +100,14 @@ class App:
         glfw.set_key_callback(h, lambda _w, key, sc, action, mods: it.key(key, action != glfw.RELEASE, mods))
         glfw.set_char_callback(h, lambda _w, cp: it.char(cp))
 
-    def _framebuffers(self, window_size, viewport) -> None:
-        """(Re)create the frame and scene framebuffers when sizes change. A
-        visible window composes straight into its back buffer; a hidden one
-        into an offscreen frame that screenshots read (and nothing is shown)."""
-        if not self.headless:
-            self.frame_fbo = self.ctx.screen
-        else:
-            fw, fh = max(window_size[0], 1), max(window_size[1], 1)
-            if self.frame_fbo is None or self.frame_fbo.size != (fw, fh):
-                if self.frame_fbo is not None:
-                    self.frame_fbo.release()
-                self.frame_fbo = self.ctx.simple_framebuffer((fw, fh), components=4)
-        # framebuffer pixels per window pixel (HiDPI), times the user's render scale
-        k = self.frame_fbo.width / max(window_size[0], 1) * self.settings.render_scale
-        vw, vh = max(round(viewport[2] * k), 1), max(round(viewport[3] * k), 1)
-        if self.scene_fbo is None or self.scene_fbo.size != (vw, vh):
-            if self.scene_fbo is not None:
-                for a in self.scene_fbo.color_attachments:
-                    a.release()
-                self.scene_fbo.depth_attachment.release()
-                self.scene_fbo.release()
-            self._scene_key = None
-            color = self.ctx.texture((vw, vh), 4)
-            color.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            self.scene_fbo = self.ctx.framebuffer([color], self.ctx.depth_renderbuffer((vw, vh)))
+    @staticmethod
+    def _opaque_windows() -> None:
+        """Opaque panel and timeline: the frame is never cleared (see app.compose)."""
+        from imgui_bundle import imgui
+        style = imgui.get_style()
+        for col in (imgui.Col_.window_bg, imgui.Col_.child_bg):
+            c = style.color_(col)
+            style.set_color_(col, imgui.ImVec4(c.x, c.y, c.z, 1.0) if col == imgui.Col_.window_bg else c)
 
     # -- one frame --------------------------------------------------------------
     def frame(self, dt: float | None = None, render: bool = True) -> None:
@@ -174,15 +144,19 @@ class App:
             self.frame_index += 1
             return
 
-        self._framebuffers(size, rects["viewport"])
-        self.render_scene(self.scene_fbo, reuse=True)
-        self.ctx.finish()  # honest render timing (llvmpipe otherwise works at swap)
+        comp = self.compositor
+        scene_size = comp.resize(self.window.framebuffer_size, rects["viewport"], size,
+                                 self.settings.render_scale)
+        view = self._scene_view(scene_size)
+        comp.draw_scene(scene_key(view) if view is not None else None,
+                        lambda fbo: self.render_scene(fbo, view))
+        self.ctx.finish()  # honest render timing (llvmpipe otherwise works at the next sync)
         t_render = time.perf_counter()
 
-        self._compose(rects["viewport"], imgui.get_draw_data())
+        self.gui.render(imgui.get_draw_data(), comp.frame)
         self._captures()
-        if not self.headless:
-            self.window.swap()
+        comp.present(self.window)
+        self.ctx.finish()
         self.window.set_cursor(self.state.cursor)
         t_end = time.perf_counter()
 
@@ -216,39 +190,32 @@ class App:
         if pose is not None and np.isfinite(pose.global_positions).all():
             state.pose, state.pose_source = pose, "pc pad"
 
-    def render_scene(self, fbo, reuse: bool = False) -> bool:
-        """Draw the 3D scene into ``fbo``; on failure keep the last image and say
-        why. With ``reuse``, an unchanged scene is not drawn again (idle frames)."""
+    def _scene_view(self, size):
+        """This frame's SceneView, or None (no renderer, or it failed to build)."""
+        if self.scene_renderer is None or self.state.rig is None:
+            return None
+        try:
+            return build_scene_view(self.state, self.settings, self.camera, size)
+        except Exception as e:
+            self.state.report(f"render: {type(e).__name__}: {e}")
+            return None
+
+    def render_scene(self, fbo, view=None) -> bool:
+        """Draw ``view`` (default: this frame's, at the fbo's size) into ``fbo``
+        at its origin; on failure say why and return False (the last image stays)."""
         if self.scene_renderer is None or self.state.rig is None:
             fbo.use()
-            fbo.clear(*BACKGROUND)
+            fbo.clear(*BACKGROUND)       # nothing to draw: an empty stage
+            return True
+        view = view if view is not None else self._scene_view(fbo.size)
+        if view is None:
             return False
         try:
-            view = build_scene_view(self.state, self.settings, self.camera, fbo.size)
-            key = scene_key(view) if reuse else None
-            if key is not None and key == self._scene_key:
-                return True
-            self._scene_key = None
             self.scene_renderer.render(view, fbo=fbo)
-            self._scene_key = key
         except Exception as e:
             self.state.report(f"render: {type(e).__name__}: {e}")
             return False
         return True
-
-    def _compose(self, viewport, draw_data) -> None:
-        """Scene texture into its viewport rectangle of the frame, then the UI over it."""
-        fbo, ctx = self.frame_fbo, self.ctx
-        fbo.use()
-        fbo.clear(*BACKGROUND)
-        k = fbo.width / max(self.window.size[0], 1)   # framebuffer pixels per window pixel (HiDPI)
-        x, y, w, h = (round(v * k) for v in viewport)
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-        ctx.viewport = (x, fbo.height - y - h, w, h)
-        self.scene_fbo.color_attachments[0].use(0)
-        self._blit_vao.render(moderngl.TRIANGLE_STRIP)
-        ctx.viewport = (0, 0, fbo.width, fbo.height)
-        self.gui.render(draw_data, fbo)
 
     # -- actions other modules ask for -------------------------------------------
     def scrub(self, frame: float) -> None:
@@ -275,7 +242,7 @@ class App:
 
     def screenshot(self) -> np.ndarray:
         """The last composed frame ``(h, w, 3)`` uint8."""
-        return capture.read_rgb(self.frame_fbo)
+        return capture.read_rgb(self.compositor.frame)
 
     def _captures(self) -> None:
         if self.settings.screenshot_requested:
@@ -302,18 +269,25 @@ class App:
         state, settings = self.state, self.settings
         keep = settings.frame
 
+        _, _, w, h = self.compositor.viewport_px
+        fbo = self.ctx.framebuffer([self.ctx.texture((w, h), 4)], self.ctx.depth_renderbuffer((w, h)))
+
         def images():
             try:
-                self._scene_key = None
                 for f in range(state.num_frames):
                     pose_at(state, float(f))
                     ball_at(state, float(f))
-                    self.render_scene(self.scene_fbo)
-                    yield capture.read_rgb(self.scene_fbo)
+                    self.render_scene(fbo)
+                    yield capture.read_rgb(fbo)
             finally:
                 pose_at(state, keep)
                 ball_at(state, keep)
-        return capture.export_frames(images(), out_dir, state.fps)
+        try:
+            return capture.export_frames(images(), out_dir, state.fps)
+        finally:
+            for a in (*fbo.color_attachments, fbo.depth_attachment):
+                a.release()
+            fbo.release()
 
     # -- loops ------------------------------------------------------------------
     def run(self) -> None:
@@ -324,6 +298,7 @@ class App:
         from imgui_bundle import imgui, implot
         try:
             self.gui.release()
+            self.compositor.release()
         finally:
             implot.destroy_context(self.implot_ctx)
             imgui.destroy_context(self.imgui_ctx)

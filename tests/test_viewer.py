@@ -30,14 +30,19 @@ def run(app, frames=1, player=None, start=0):
 
 
 def render_view(app, edit=None):
-    """Render the current SceneView (optionally edited) into the scene framebuffer."""
+    """Render the current SceneView (optionally edited) offscreen at the viewport's size."""
     from app.capture import read_rgb
     from app.submit import build_scene_view
-    view = build_scene_view(app.state, app.settings, app.camera, app.scene_fbo.size)
-    if edit is not None:
-        edit(view)
-    app.scene_renderer.render(view, fbo=app.scene_fbo)
-    return read_rgb(app.scene_fbo).astype(int)
+    size = tuple(app.state.viewport[2:])
+    fbo = app.ctx.framebuffer([app.ctx.texture(size, 4)], app.ctx.depth_renderbuffer(size))
+    try:
+        view = build_scene_view(app.state, app.settings, app.camera, size)
+        if edit is not None:
+            edit(view)
+        app.scene_renderer.render(view, fbo=fbo)
+        return read_rgb(fbo).astype(int)
+    finally:
+        fbo.release()
 
 
 def changed(a, b, threshold=30):
@@ -93,15 +98,17 @@ def test_default_scene_has_batsman_ball_pitch_and_panel(app):
     sx, sy = np.round(strip).astype(int)
     gx, gy = np.round(grass).astype(int)
     assert base[sy, sx].sum() > base[gy, gx].sum() + 60, (base[sy, sx], base[gy, gx])
-    # the composed frame: panel on the right, the scene left of it, untouched by it
+    # the composed frame: panel on the right, the scene left of it, untouched by
+    # it; the timeline along the scene's bottom edge
     shot = app.screenshot()
     rects = layout(SIZE)
     px, py, pw, ph = rects["panel"]
-    assert vx + vw <= px
+    tx, ty, tw, th = rects["timeline"]
+    assert vx + vw <= px and ty + th == vy + vh and tw == vw
     panel = shot[:, px + 2:].astype(int)
     assert panel.std() > 10                       # text and widgets drawn
-    scene_part = shot[vy:vy + vh, :vx + vw].astype(int)
-    assert np.abs(scene_part - base[:vh, :vw]).max() <= 2   # the scene shows unscaled, uncovered
+    scene_part = shot[vy:ty, vx:vx + vw].astype(int)
+    assert np.abs(scene_part - base[:ty - vy, :vw]).max() <= 2   # the scene shows unscaled, uncovered
     app.settings.overlays.ghost = "mesh"
 
 

@@ -1,0 +1,119 @@
+"""Frame composition: the 3D scene and the UI into one offscreen frame, then
+(with a window) one blit to the screen.
+
+The 3D viewport is the left part of the window, full height, so in GL
+coordinates it starts at the origin: at render scale 1 the renderer draws
+straight into the frame (no intermediate copy), and an unchanged scene is
+restored from a cached copy instead of being drawn again. At a lower render
+scale the scene goes to a smaller framebuffer that is stretched into place.
+The panel and timeline windows are opaque, so nothing needs clearing.
+"""
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+_BLIT_VS = """
+#version 330
+in vec2 in_pos; out vec2 uv;
+void main() { uv = in_pos * 0.5 + 0.5; gl_Position = vec4(in_pos, 0.0, 1.0); }
+"""
+_BLIT_FS = """
+#version 330
+uniform sampler2D tex; in vec2 uv; out vec4 color;
+void main() { color = vec4(texture(tex, uv).rgb, 1.0); }
+"""
+BACKGROUND = (0.11, 0.12, 0.14, 1.0)
+
+
+def _release(fbo) -> None:
+    if fbo is None:
+        return
+    for a in list(fbo.color_attachments) + [fbo.depth_attachment]:
+        if a is not None:
+            a.release()
+    fbo.release()
+
+
+class Compositor:
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self.frame: moderngl.Framebuffer | None = None    # window-sized: scene + UI
+        self.cache: moderngl.Framebuffer | None = None    # copy of the last scene (scale 1)
+        self.scaled: moderngl.Framebuffer | None = None   # scene at render scale < 1
+        self.scene_key: str | None = None                 # what cache/scaled holds
+        self.viewport_px = (0, 0, 1, 1)                   # GL pixels, bottom-left origin
+        prog = ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_BLIT_FS)
+        quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
+        self._blit = ctx.vertex_array(prog, [(quad, "2f", "in_pos")])
+
+    def resize(self, frame_size: tuple[int, int], viewport, window_size, scale: float) -> tuple[int, int]:
+        """Fit the framebuffers to the window; returns the scene's pixel size."""
+        fw, fh = max(int(frame_size[0]), 1), max(int(frame_size[1]), 1)
+        if self.frame is None or self.frame.size != (fw, fh):
+            _release(self.frame)
+            self.frame = self.ctx.framebuffer([self.ctx.texture((fw, fh), 4)],
+                                              self.ctx.depth_renderbuffer((fw, fh)))
+            self.frame.use()
+            self.frame.clear(*BACKGROUND)
+            self.invalidate()
+        k = fw / max(window_size[0], 1)        # framebuffer pixels per window pixel (HiDPI)
+        x, y, w, h = (round(v * k) for v in viewport)
+        self.viewport_px = (x, fh - y - h, max(w, 1), max(h, 1))
+        self.direct = scale >= 0.999 and self.viewport_px[:2] == (0, 0)
+        size = self.viewport_px[2:] if self.direct else (max(round(w * scale), 1), max(round(h * scale), 1))
+        target_attr = "cache" if self.direct else "scaled"
+        target = getattr(self, target_attr)
+        if target is None or target.size != tuple(size):
+            _release(target)
+            color = self.ctx.texture(tuple(size), 4)
+            color.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            depth = None if self.direct else self.ctx.depth_renderbuffer(tuple(size))
+            setattr(self, target_attr, self.ctx.framebuffer([color], depth))
+            self.invalidate()
+        return tuple(size)
+
+    def invalidate(self) -> None:
+        self.scene_key = None
+
+    def draw_scene(self, key: str | None, render) -> None:
+        """``render(fbo)`` draws the scene at origin into ``fbo``; skipped (the
+        cached image is used) when ``key`` equals the last one drawn."""
+        ctx = self.ctx
+        if self.direct:
+            if key is not None and key == self.scene_key:
+                ctx.copy_framebuffer(self.frame, self.cache)      # restore the unchanged scene
+                return
+            self.scene_key = None
+            if render(self.frame):
+                ctx.copy_framebuffer(self.cache, self.frame)      # keep it for idle frames
+                self.scene_key = key
+            else:
+                ctx.copy_framebuffer(self.frame, self.cache)      # the last good image
+            return
+        if key is None or key != self.scene_key:
+            self.scene_key = key if render(self.scaled) else None
+        self.frame.use()
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        ctx.viewport = self.viewport_px
+        self.scaled.color_attachments[0].use(0)
+        self._blit.render(moderngl.TRIANGLE_STRIP)
+        ctx.viewport = (0, 0, self.frame.width, self.frame.height)
+
+    def scene_image(self) -> np.ndarray:
+        """The 3D view of the last frame ``(h, w, 3)`` uint8, top row first."""
+        x, y, w, h = self.viewport_px
+        data = self.frame.read(viewport=(x, y, w, h), components=3, alignment=1)
+        return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1].copy()
+
+    def present(self, window) -> None:
+        """Blit the frame to a visible window and swap (no-op headless)."""
+        if window.glfw is None or not window.visible:
+            return
+        self.ctx.copy_framebuffer(self.ctx.screen, self.frame)
+        window.swap()
+
+    def release(self) -> None:
+        for fbo in (self.frame, self.cache, self.scaled):
+            _release(fbo)
+        self.frame = self.cache = self.scaled = None
