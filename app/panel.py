@@ -227,6 +227,11 @@ def _pc_pad(state: AppState, extras: dict) -> None:
     if module is None:
         return
     if imgui.collapsing_header("PC pad", imgui.TreeNodeFlags_.default_open):
+        if state.dragging_target:
+            # A drag can switch shots every frame; the pad refits its PCA per
+            # shot (~100 ms), so it waits for the release.
+            imgui.text_colored(DIM, "PC pad: updates when the target is released")
+            return
         try:
             module.draw_pc_pad(state)
         except Exception as e:  # someone else's widget must not take the window down
