@@ -100,12 +100,6 @@ class Compositor:
         self._blit.render(moderngl.TRIANGLE_STRIP)
         ctx.viewport = (0, 0, self.frame.width, self.frame.height)
 
-    def scene_image(self) -> np.ndarray:
-        """The 3D view of the last frame ``(h, w, 3)`` uint8, top row first."""
-        x, y, w, h = self.viewport_px
-        data = self.frame.read(viewport=(x, y, w, h), components=3, alignment=1)
-        return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1].copy()
-
     def present(self, window) -> None:
         """Blit the frame to a visible window and swap (no-op headless)."""
         if window.glfw is None or not window.visible:
