@@ -772,6 +772,7 @@ class Adapter:
         self.rel_rot = np.ascontiguousarray(quat.mul(inv, g_rh))
         self.rel_pos = np.ascontiguousarray(quat.rotate(inv, self.src_gpos[:, self.rhand] - self.src_gpos[:, self.lhand]))
         self._chains: dict[tuple, tuple] = {}
+        self._blend_cache: tuple[float, np.ndarray] = (float("nan"), np.empty(0))
         # where the right arm hangs off the left-arm chain (Spine2), for the two-arm solve
         rpar = int(self.parents[right.joints[0]])
         self.right_parent_in_left = list(left.joints).index(rpar) if rpar in list(left.joints) else -1
@@ -805,6 +806,12 @@ class Adapter:
                 blend = blend * (t * t * (3.0 - 2.0 * t))
         return blend
 
+    def _blend_for(self, falloff: float) -> np.ndarray:
+        # cached: scrubbing calls adapt_frame every frame with the same falloff
+        if self._blend_cache[0] != falloff:
+            self._blend_cache = (falloff, np.ascontiguousarray(self.blend(falloff)))
+        return self._blend_cache[1]
+
     def _chain_args(self, settings: AdaptSettings) -> tuple:
         key = (settings.wrist_dof, settings.solver)
         if key not in self._chains:
@@ -824,7 +831,7 @@ class Adapter:
         K, J = len(frames), self.parents.shape[0]
         out = (np.empty((K, J, 4)), np.empty((K, J, 4)), np.empty((K, J, 3)), np.empty(K),
                np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
-        _adapt_frames(frames, self.hit_frame, p, self.blend(float(settings.falloff)), self.parents, self.trans,
+        _adapt_frames(frames, self.hit_frame, p, self._blend_for(float(settings.falloff)), self.parents, self.trans,
                       self.src_local, self.src_grot, self.src_gpos, self.src_euler,
                       self.subtree_l, self.subtree_r, self.bat, self.lhand,
                       *self._chain_args(settings),
