@@ -23,8 +23,9 @@ SETTINGS = {
 }
 
 
-def test_random_input_never_breaks_the_viewer():
+def test_random_input_never_breaks_the_viewer(tmp_path, monkeypatch):
     from app.viewer import App
+    monkeypatch.chdir(tmp_path)  # F12 among the random keys writes screenshots to the cwd
     rng = np.random.default_rng(7)
     app = App((1280, 720), headless=True)
     try:
