@@ -63,22 +63,36 @@ def outgoing_velocity(face_normal, ball_velocity, bat_velocity,
 def fly(position, velocity, duration: float = 3.0, dt: float = 1 / 120,
         e_ground: float = RESTITUTION_GROUND, friction: float = FRICTION_GROUND,
         radius: float = 3.6) -> np.ndarray:
-    """Polyline ``(K,3)`` of a ball under gravity bouncing on the ground (y = radius)."""
-    steps = int(np.ceil(duration / dt))
-    pts = np.empty((steps + 1, 3))
+    """Polyline ``(K,3)`` of a ball under gravity bouncing on the ground (y = radius),
+    sampled every ``dt`` seconds. Each flight between bounces is a closed-form
+    parabola (the loop runs over bounces, never over samples); once a bounce is
+    too small to see, the ball rolls on."""
+    times = np.arange(int(np.ceil(duration / dt)) + 1) * dt
+    pts = np.empty((len(times), 3))
     p = np.array(position, float)
     v = np.array(velocity, float)
     p[1] = max(p[1], radius)
-    pts[0] = p
-    for i in range(steps):      # a few hundred steps: plain Python is fine
-        v[1] -= GRAVITY * dt
-        p = p + v * dt
-        if p[1] < radius:
-            p[1] = radius + (radius - p[1]) * e_ground
-            v[1] = -v[1] * e_ground
-            v[0] *= friction
-            v[2] *= friction
-        pts[i + 1] = p
+    t0 = 0.0
+    for _ in range(64):
+        height = p[1] - radius
+        t_land = (v[1] + np.sqrt(max(v[1] * v[1] + 2 * GRAVITY * height, 0.0))) / GRAVITY
+        rolling = t_land < 1e-3
+        sel = times >= t0 if rolling else (times >= t0) & (times < t0 + t_land)
+        tt = times[sel] - t0
+        pts[sel] = p + tt[:, None] * v
+        if rolling:
+            pts[sel, 1] = radius
+            break
+        pts[sel, 1] -= 0.5 * GRAVITY * tt * tt
+        p = p + t_land * v
+        p[1] = radius
+        v = np.array([v[0] * friction, -(v[1] - GRAVITY * t_land) * e_ground, v[2] * friction])
+        t0 += t_land
+        if t0 > duration:
+            break
+    else:
+        rest = times >= t0
+        pts[rest] = p
     return pts
 
 
