@@ -1,12 +1,20 @@
 """Scene renderer: shadowed, lit, skinned batsman on a cricket ground, with overlays.
 
-One ``SceneRenderer`` per GL context. Vertex buffers of the batsman and the
-props are uploaded once; per frame only the bone-matrix uniform arrays and the
-small overlay buffers (updated in place, orphaned) change. Passes: shadow map
-(1024^2, directional sun fitted around the batsman), opaque lit geometry
-(batsman, wickets, ball, target, ground), sky (far plane, early-z keeps it
-cheap), overlays (thick lines and round points via geometry shaders), then the
-translucent ghost (depth pre-pass so it never shows its own back faces).
+One ``SceneRenderer`` per GL context, tuned for Mesa llvmpipe (software GL: every
+triangle and every shaded pixel costs CPU time):
+
+* the static scene (sky, ground with the stumps' baked shadow, stadium, stumps) is
+  drawn once per camera and size into a colour + depth layer and copied in per
+  frame (dragging the target never moves the camera);
+* the batsman is skinned once per pose on the CPU (``skinning.py``) and drawn by
+  the static programs; a coarse copy of him (``BatsmanShadow`` in the glb) casts
+  his shadow into a small map fitted tightly around him, redrawn only when the
+  pose or the ball moves, and a receiver quad under his shadow darkens the
+  (cached) ground, depth-tested after the opaque meshes;
+* the translucent ghost's nearest surface (colour, alpha, depth) is a layer redrawn
+  only when the source pose or the camera changes, blended in over its screen box;
+* overlays: thick lines and round points via geometry shaders.
+
 Matrices use the column-vector convention: ``p_clip = proj @ view @ p_world``.
 """
 from __future__ import annotations
@@ -16,9 +24,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import props
-from .gl import DynamicBuffer, mat_bytes, program, set_uniform
+from .gl import DynamicBuffer, program, set_uniform
 
-MAX_BONES = 32
 IDENTITY = np.eye(4, dtype=np.float32)
 SHADOW_SIZE = 384          # the batsman's shadow map, fitted tightly around him
 STATIC_SHADOW_SIZE = 512    # the stumps' (drawn into the cached static layer)
@@ -105,24 +112,16 @@ def _vao(ctx, prog, buffers, index_buffer=None):
 
 
 class _MeshGPU:
-    """Static buffers of one mesh, with a lit VAO and a depth-only VAO."""
+    """Static buffers of one rigid mesh, with a lit VAO and a depth-only VAO."""
 
-    def __init__(self, ctx, mesh, lit_prog, depth_prog, skinned: bool):
+    def __init__(self, ctx, mesh, lit_prog, depth_prog):
         self.buffers = [ctx.buffer(np.ascontiguousarray(a, dtype=dt).tobytes()) for a, dt in (
             (mesh.positions, "f4"), (mesh.normals, "f4"), (mesh.colors, "f4"), (mesh.gloss, "f4"))]
         self.ibo = ctx.buffer(np.ascontiguousarray(mesh.indices, dtype="u4").tobytes())
         pos, nrm, col, gl = self.buffers
         attrs = [(pos, "3f", "in_pos"), (nrm, "3f", "in_normal"), (col, "4f", "in_color"), (gl, "1f", "in_gloss")]
-        depth_attrs = [(pos, "3f", "in_pos")]
-        if skinned:
-            jb = ctx.buffer(np.ascontiguousarray(mesh.joints, dtype="i4").tobytes())
-            wb = ctx.buffer(np.ascontiguousarray(mesh.weights, dtype="f4").tobytes())
-            self.buffers += [jb, wb]
-            attrs += [(jb, "4i", "in_joints"), (wb, "4f", "in_weights")]
-            depth_attrs += [(jb, "4i", "in_joints"), (wb, "4f", "in_weights")]
         self.lit = _vao(ctx, lit_prog, attrs, self.ibo)
-        self.depth = _vao(ctx, depth_prog, depth_attrs, self.ibo)
-        self.shadow = self.depth
+        self.depth = _vao(ctx, depth_prog, [(pos, "3f", "in_pos")], self.ibo)
 
 
 class _PosedBody:
@@ -179,12 +178,8 @@ class SceneRenderer:
         self.bind_positions = bind_positions(rig.skeleton)
         meshes = load_glb(glb_path, rig)
         self.body_mesh, self.ball_mesh = meshes["Batsman"], meshes["Ball"]
-        if rig.skeleton.num_joints > MAX_BONES:
-            raise ValueError(f"rig has {rig.skeleton.num_joints} joints; the renderer supports {MAX_BONES}")
 
-        self.p_skin = program(ctx, "skin.vert", "lit.frag")
         self.p_static = program(ctx, "static.vert", "lit.frag")
-        self.p_depth_skin = program(ctx, "depth_skin.vert", "depth.frag")
         self.p_depth_static = program(ctx, "depth_static.vert", "depth.frag")
         self.p_ground = program(ctx, "ground.vert", "ground.frag")
         self.p_receiver = program(ctx, "receiver.vert", "receiver.frag")
@@ -193,16 +188,16 @@ class SceneRenderer:
         self.p_point = program(ctx, "line.vert", "point.frag", "point.geom")
         self.p_ghost = program(ctx, "ghost_composite.vert", "ghost_composite.frag")
 
-        self.body = _MeshGPU(ctx, self.body_mesh, self.p_skin, self.p_depth_skin, True)   # GPU-skinned: the ghost
         self.shadow_mesh = meshes.get("BatsmanShadow")
         if self.shadow_mesh is not None and self.shadow_mesh.joints is None:
             self.shadow_mesh = None
         # the posed batsman; the coarse copy casts the shadow (a third of the triangles, the same outline)
         self.posed = _PosedBody(ctx, self.body_mesh, self.shadow_mesh, self.p_static, self.p_depth_static)
-        self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static, False)
+        self.ghost_posed = _PosedBody(ctx, self.body_mesh, None, self.p_static, self.p_depth_static)
+        self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static)
         self.wickets_mesh = props.wickets()
-        self.wickets = _MeshGPU(ctx, self.wickets_mesh, self.p_static, self.p_depth_static, False)
-        self.target = _MeshGPU(ctx, props.target_disc(), self.p_static, self.p_depth_static, False)
+        self.wickets = _MeshGPU(ctx, self.wickets_mesh, self.p_static, self.p_depth_static)
+        self.target = _MeshGPU(ctx, props.target_disc(), self.p_static, self.p_depth_static)
 
         gpos, gcol = props.ground()
         self.ground_bufs = [ctx.buffer(gpos.astype("f4").tobytes()), ctx.buffer(gcol.astype("f4").tobytes())]
@@ -223,7 +218,6 @@ class SceneRenderer:
         self.point_buf = DynamicBuffer(ctx)
         self._overlay_vaos = {}
         self._offscreen = {}
-        self._bones = bytearray(MAX_BONES * 64)
         self.ghost_vao = ctx.vertex_array(self.p_ghost, [])
         self._joint_boxes = joint_boxes(self.body_mesh, rig.skeleton.num_joints)
         self._static = _Layer()     # sky, ground, stadium, wickets for one camera and size
@@ -237,7 +231,7 @@ class SceneRenderer:
 
     # ------------------------------------------------------------------ setup
     def _static_setup(self):
-        for p in (self.p_skin, self.p_static, self.p_ground, self.p_receiver):
+        for p in (self.p_static, self.p_ground, self.p_receiver):
             for k, v in LIGHTING.items():
                 set_uniform(p, k, v)
             set_uniform(p, "u_shadow_texel", 1.0 / SHADOW_SIZE)   # receiver: set per use
@@ -245,7 +239,7 @@ class SceneRenderer:
         light, tint = ground_light()
         set_uniform(self.p_ground, "u_light", light)
         set_uniform(self.p_receiver, "u_shadow_tint", tint)
-        for p in (self.p_skin, self.p_static):
+        for p in (self.p_static,):
             set_uniform(p, "u_mode", 0)
             set_uniform(p, "u_alpha", 1.0)
             set_uniform(p, "u_tint", (1.0, 1.0, 1.0))
@@ -254,12 +248,6 @@ class SceneRenderer:
         set_uniform(self.p_sky, "u_sun_dir", tuple(SUN_DIR))
         set_uniform(self.p_sky, "u_zenith", ZENITH)
         set_uniform(self.p_sky, "u_horizon", HORIZON)
-
-    def _upload_bones(self, prog, skin_matrices: np.ndarray) -> None:
-        m = np.asarray(skin_matrices, np.float32)
-        data = mat_bytes(m)
-        self._bones[:len(data)] = data
-        prog["u_bones"].write(bytes(self._bones))
 
     def joint_positions(self, skin_matrices: np.ndarray) -> np.ndarray:
         """World joint positions ``(J,3)`` recovered from skinning matrices."""
@@ -336,7 +324,7 @@ class SceneRenderer:
     # ------------------------------------------------------------------ passes
     def _frame_uniforms(self, vp, eye, light_vp, shadows: bool, shadow_tex) -> None:
         shadow_tex.use(0)
-        for p in (self.p_skin, self.p_static, self.p_ground, self.p_receiver):
+        for p in (self.p_static, self.p_ground, self.p_receiver):
             set_uniform(p, "u_view_proj", vp)
             set_uniform(p, "u_eye", eye)
             set_uniform(p, "u_light_vp", light_vp)
@@ -474,8 +462,8 @@ class SceneRenderer:
             fbo.use()
             ctx.viewport = (0, 0, *view.size)
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            set_uniform(self.p_skin, "u_view_proj", vp)
-            set_uniform(self.p_skin, "u_eye", eye)
+            set_uniform(self.p_static, "u_view_proj", vp)
+            set_uniform(self.p_static, "u_eye", eye)
             ctx.enable(moderngl.CULL_FACE)
             self._draw_ghost(view, fbo)
             ctx.disable(moderngl.CULL_FACE)
@@ -514,21 +502,25 @@ class SceneRenderer:
         ctx.depth_mask = True
 
     def _draw_ghost(self, view: SceneView, target_fbo) -> None:
+        """The source pose, translucent: a depth pre-pass (no colour) so only its nearest
+        surface is shaded; skinned on the CPU into its own buffers."""
         ctx = self.ctx
-        self._upload_bones(self.p_skin, view.ghost_skin_matrices)
-        set_uniform(self.p_skin, "u_mode", 1)
-        set_uniform(self.p_skin, "u_alpha", float(view.ghost_alpha))
-        # depth pre-pass (cheap program, no colour) so only the nearest ghost surface blends
-        set_uniform(self.p_depth_skin, "u_view_proj", self._vp)
-        self._upload_bones(self.p_depth_skin, view.ghost_skin_matrices)
+        ghost = self.ghost_posed
+        ghost.update(view.ghost_skin_matrices)
+        set_uniform(self.p_depth_static, "u_view_proj", self._vp)
+        set_uniform(self.p_depth_static, "u_model", IDENTITY)
         target_fbo.color_mask = (False, False, False, False)
-        self.body.depth.render()
+        ghost.shadow.render()
         target_fbo.color_mask = (True, True, True, True)
         ctx.depth_func = "<="
         ctx.depth_mask = False
-        self.body.lit.render()
+        set_uniform(self.p_static, "u_model", IDENTITY)
+        set_uniform(self.p_static, "u_mode", 1)
+        set_uniform(self.p_static, "u_alpha", float(view.ghost_alpha))
+        ghost.lit.render()
+        set_uniform(self.p_static, "u_mode", 0)
+        set_uniform(self.p_static, "u_alpha", 1.0)
         ctx.depth_mask = True
-        set_uniform(self.p_skin, "u_mode", 0)
 
     # ------------------------------------------------------------------ overlays
     @staticmethod
