@@ -78,8 +78,13 @@ def strip_camera(points: np.ndarray, cell: tuple[int, int], fovy: float = 30.0, 
     return view, proj
 
 
-def render_strip(shot, rig, count: int, cell: tuple[int, int]):
-    """The contact sheet as a PIL image."""
+ADAPTED_RGBA = (0.2, 0.85, 1.0, 1.0)
+
+
+def render_strip(shot, rig, count: int, cell: tuple[int, int], adapted=None):
+    """The contact sheet as a PIL image; with ``adapted`` (an engine.adapt.Adaptation)
+    the top row shows the adapted shot over a ghost of the source, and the
+    bottom row both skeletons (source yellow, adapted blue)."""
     from PIL import Image, ImageDraw
     from app.render import SceneRenderer, SceneView, offscreen_context, render_image
     from engine import quat
@@ -93,20 +98,40 @@ def render_strip(shot, rig, count: int, cell: tuple[int, int]):
     pts = np.concatenate([g_pos[frames].reshape(-1, 3), bats.reshape(-1, 3), head_top,
                           [[g_pos[frames, 0, 0].mean(), 0.0, g_pos[frames, 0, 2].mean()]]])
     view, proj = strip_camera(pts, cell)
-    skins = skinning_matrices(g_rot[frames], g_pos[frames], bind_positions(rig.skeleton))
+    bind = bind_positions(rig.skeleton)
+    skins = skinning_matrices(g_rot[frames], g_pos[frames], bind)
+    ghosts = [None] * len(frames)
+    if adapted is not None:
+        a_rot, a_pos = adapted.global_rotations[frames], adapted.global_positions[frames]
+        ghosts = skins
+        skins = skinning_matrices(a_rot, a_pos, bind)
+        a_bats = bat_segment(rig, a_rot, a_pos)
 
     ctx = offscreen_context()
     renderer = SceneRenderer(ctx, rig)
     W, H = cell
     sheet = Image.new("RGB", (W * len(frames), TITLE_H + 2 * H + LABEL_H), (24, 28, 36))
     draw = ImageDraw.Draw(sheet)
-    draw.text((10, 10), f"{shot.name}  -  {shot.num_frames} frames, hit frame {shot.hit_frame}"
-                        f"  -  top: skinned mesh, bottom: source skeleton", fill=(235, 235, 235))
+    if adapted is None:
+        caption = "top: skinned mesh, bottom: source skeleton"
+    else:
+        p = adapted.desired_hit_point
+        caption = (f"adapted to ({p[0]:.0f}, {p[1]:.0f}, {p[2]:.0f}) cm, bat error "
+                   f"{adapted.bat_error_cm:.3f} cm  -  top: adapted mesh over the source's ghost, "
+                   f"bottom: source (yellow) and adapted (blue) skeletons")
+    draw.text((10, 10), f"{shot.name}  -  {shot.num_frames} frames, hit frame {shot.hit_frame}  -  {caption}",
+              fill=(235, 235, 235))
+    hit_ball = shot.hit_point if adapted is None else adapted.desired_hit_point
     for k, f in enumerate(frames):
-        ball = shot.hit_point if f == shot.hit_frame else None
-        top = SceneView(view, proj, cell, skins[k], ball_position=ball)
-        bottom = SceneView(view, proj, cell, None, skeleton_lines=[(g_pos[f], rig.skeleton.parents, SKELETON_RGBA)],
-                           polylines=[(bats[k], BAT_RGBA, 6.0)], ball_position=ball, skeleton_width_px=3.0)
+        ball = hit_ball if f == shot.hit_frame else None
+        top = SceneView(view, proj, cell, skins[k], ghost_skin_matrices=ghosts[k], ball_position=ball)
+        lines = [(g_pos[f], rig.skeleton.parents, SKELETON_RGBA)]
+        bat_lines = [(bats[k], BAT_RGBA, 6.0)]
+        if adapted is not None:
+            lines.append((adapted.global_positions[f], rig.skeleton.parents, ADAPTED_RGBA))
+            bat_lines.append((a_bats[k], ADAPTED_RGBA, 6.0))
+        bottom = SceneView(view, proj, cell, None, skeleton_lines=lines,
+                           polylines=bat_lines, ball_position=ball, skeleton_width_px=3.0)
         x = k * W
         sheet.paste(Image.fromarray(render_image(renderer, top)), (x, TITLE_H))
         sheet.paste(Image.fromarray(render_image(renderer, bottom)), (x, TITLE_H + H))
@@ -144,6 +169,11 @@ def register(cli: typer.Typer) -> None:
         out: Path = typer.Option(..., "--out", help="PNG file to write."),
         frames: int = typer.Option(9, "--frames", help="Number of frames on the sheet (the hit frame is always one)."),
         size: str = typer.Option("260x340", "--size", help="Size of one cell, WIDTHxHEIGHT pixels."),
+        hit: tuple[float, float, float] = typer.Option((float("nan"),) * 3, "--hit",
+                                                       help="Adapt the shot to this hit point X Y Z (cm) first.",
+                                                       show_default=False),
+        falloff: float = typer.Option(90.0, "--falloff", help="IK falloff in cm (with --hit)."),
+        wrist_dof: int = typer.Option(0, "--wrist-dof", help="Left wrist DOF, 0 or 2 (with --hit)."),
     ):
         """Contact sheet of a shot: skinned mesh (top) and source skeleton (bottom), frames side by side."""
         from engine.library import find_shot, load_library
@@ -156,6 +186,12 @@ def register(cli: typer.Typer) -> None:
         cell = parse_size(size)
         rig = default_rig()
         s = find_shot(load_library(rig=rig), shot)
-        img = render_strip(s, rig, frames, cell)
+        adapted = None
+        if not all(np.isnan(hit)):
+            from engine.adapt import Adapter, AdaptSettings
+            if not np.all(np.isfinite(hit)):
+                raise UserError("--hit must be three finite numbers (cm)")
+            adapted = Adapter(rig, s).adapt(np.array(hit, float), AdaptSettings(falloff=falloff, wrist_dof=wrist_dof))
+        img = render_strip(s, rig, frames, cell, adapted)
         save_png_atomic(img, out)
         print(f"wrote {out} ({img.width}x{img.height}, frames {', '.join(map(str, strip_frames(s.num_frames, s.hit_frame, frames)))})")
