@@ -3,7 +3,6 @@ shot as a PNG sequence (or an mp4 when imageio-ffmpeg is available)."""
 from __future__ import annotations
 
 import os
-import tempfile
 import time
 from pathlib import Path
 
@@ -22,15 +21,9 @@ def write_png(path: str | Path, image: np.ndarray) -> Path:
     import imageio.v3 as iio
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".png")
-    os.close(fd)
-    try:
+    from engine.atomic import atomic_output
+    with atomic_output(path) as tmp:
         iio.imwrite(tmp, image, extension=".png")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
     return path
 
 

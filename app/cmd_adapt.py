@@ -72,7 +72,6 @@ def _write(out: Path, rig, shot, a) -> None:
     if out.suffix.lower() == ".bvh":
         bvh.write(out, shot.skeleton, Clip(a.root_positions, a.local_rotations, shot.clip.fps))
         return
-    import numpy as np
     from engine.ccd import limit_euler
     e = limit_euler(a.local_rotations, rig.limits)
     names = shot.skeleton.names

@@ -226,19 +226,9 @@ def write_components_strip(rig, shot, path: Path, part: str = "upper", cell: int
 
 
 def _atomic_png(img, path: Path) -> None:
-    import os
-    import tempfile
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp.png", dir=path.parent)
-    os.close(fd)
-    try:
+    from engine.atomic import atomic_output
+    with atomic_output(path) as tmp:
         img.save(tmp, format="PNG")
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def _view_axes():

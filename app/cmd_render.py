@@ -7,8 +7,6 @@ the sheet.
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -147,18 +145,12 @@ def render_strip(shot, rig, count: int, cell: tuple[int, int], adapted=None):
 
 
 def save_png_atomic(img, out: Path) -> None:
+    from engine.atomic import atomic_output
     out = Path(out)
     if not out.parent.exists():
         raise UserError(f"{out}: directory {out.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=out.parent, suffix=".png.tmp")
-    os.close(fd)
-    try:
+    with atomic_output(out) as tmp:
         img.save(tmp, format="PNG")
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def register(cli: typer.Typer) -> None:

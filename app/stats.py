@@ -3,8 +3,6 @@ time to first frame; written as JSON (atomically)."""
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from pathlib import Path
 
@@ -51,17 +49,8 @@ class FrameStats:
 
 
 def write_json_atomic(path: str | Path, data) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f, indent=1)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    from engine.atomic import write_text
+    write_text(path, json.dumps(data, indent=1) + "\n")
 
 
 def _r(x) -> float:

@@ -25,7 +25,7 @@ from numba import njit
 from . import quat
 from .ccd import (KIND_MULTI, KIND_NONE, ChainArrays, _q_at, _q_put, _v_at, _v_put, ccd_frame,
                   chain_arrays, chain_fk, cross, clamp_angle, from_euler_zyx, hinge_axis, limit_euler,
-                  pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub, wrap)
+                  pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub)
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations
 

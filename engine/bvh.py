@@ -9,12 +9,11 @@ from __future__ import annotations
 import math
 import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from . import quat
+from . import atomic, quat
 from .skeleton import Clip, Skeleton
 
 _ROT = {"Xrotation": "X", "Yrotation": "Y", "Zrotation": "Z"}
@@ -277,15 +276,5 @@ def write(path: str | os.PathLike, skeleton: Skeleton, clip: Clip) -> None:
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
-    p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent or ".")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        os.replace(tmp, p)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    """Write text atomically (see :mod:`engine.atomic`)."""
+    atomic.write_text(path, text)

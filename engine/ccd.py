@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from . import quat
 
 KIND_NONE = 0          # no free DOF: never turned
 # 1, 2, 3: a single free Euler column (kind - 1 = column z, y, x)

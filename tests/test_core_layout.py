@@ -1,6 +1,5 @@
 """Architecture rules: engine/ stays free of the app and of GL/window libraries."""
 import ast
-from pathlib import Path
 
 from conftest import ROOT
 

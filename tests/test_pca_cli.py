@@ -6,7 +6,7 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
-from engine import bvh, quat
+from engine import bvh
 from engine.library import conform_to_rig
 from test_pca import smooth_random_clip
 

@@ -5,7 +5,6 @@ the 3D view."""
 import numpy as np
 import pytest
 
-from app.picking import TARGET_PLANE_Z
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 
