@@ -9,33 +9,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.render.scene import look_at, perspective  # noqa: F401  (one definition, shared)
+
 DEFAULT_PIVOT = (0.0, 95.0, 30.0)
-
-
-def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
-    """World->camera matrix ``(4,4)`` float32 looking from ``eye`` at ``target``."""
-    eye, target, up = (np.asarray(v, float) for v in (eye, target, up))
-    f = target - eye
-    f /= np.linalg.norm(f)
-    s = np.cross(f, up)
-    if np.linalg.norm(s) < 1e-9:  # looking straight up/down: any side vector will do
-        s = np.cross(f, (1.0, 0.0, 0.0))
-    s /= np.linalg.norm(s)
-    u = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m.astype(np.float32)
-
-
-def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
-    """OpenGL perspective projection ``(4,4)`` float32."""
-    t = 1.0 / np.tan(np.radians(fovy_deg) / 2)
-    m = np.zeros((4, 4))
-    m[0, 0], m[1, 1] = t / aspect, t
-    m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
-    m[3, 2] = -1.0
-    return m.astype(np.float32)
 
 
 @dataclass
