@@ -188,17 +188,31 @@ def test_strip_frames_include_the_hit_frame():
         assert h in f and f == sorted(set(f)) and 0 <= min(f) and max(f) < n and len(f) <= k
 
 
-def test_cpu_skinning_matches_linear_blend(renderer, rig):
-    """The numba skinning the lit pass and the shadow caster use = sum_k w_k M_k p."""
-    from app.render.skinning import SkinnedMesh
-    mesh = renderer.body_mesh
-    _, M = pose(rig, dict(ARMS_DOWN, LeftForeArm=((0, 1, 0), -70)))
-    pos, nrm = SkinnedMesh(mesh).pose(M)
-    M = M.astype(float)
+def _linear_blend(mesh, M, normals=True):
+    """Reference skinning ``sum_k w_k M_k p`` in float64: positions (V,3) and normals (V,3)."""
+    M = np.asarray(M, float)[mesh.joints]
     p = np.concatenate([mesh.positions, np.ones((len(mesh.positions), 1))], 1)
-    want = np.einsum("vk,vkab,vb->va", mesh.weights, M[mesh.joints], p)[:, :3]
-    want_n = np.einsum("vk,vkab,vb->va", mesh.weights, M[mesh.joints][..., :3, :3], mesh.normals)
-    assert np.allclose(pos, want, atol=1e-3) and np.allclose(nrm, want_n, atol=1e-4)
+    pos = np.einsum("vk,vkab,vb->va", mesh.weights, M, p)[:, :3]
+    nrm = np.einsum("vk,vkab,vb->va", mesh.weights, M[..., :3, :3], mesh.normals) if normals else None
+    return pos, nrm
+
+
+def test_gpu_skinning_matches_linear_blend(renderer, rig):
+    """The transform-feedback buffers the lit pass, the shadow caster and the ghost draw
+    hold sum_k w_k M_k p (within 1e-3 cm) for the pose just rendered, and a second pose
+    replaces the first."""
+    for rotations in (dict(ARMS_DOWN, LeftForeArm=((0, 1, 0), -70)), {"Spine": ((1, 0, 0), 30)}):
+        _, M = pose(rig, rotations)
+        _, G = pose(rig, dict(rotations, Hips=((0, 1, 0), 45)))
+        render(renderer, view_of(M, ghost_skin_matrices=G))
+        with renderer.ctx:
+            body, ghost = renderer.posed.body.read(), renderer.ghost_posed.body.read()
+            caster = renderer.posed.caster.read() if renderer.posed.caster is not None else None
+        pos, nrm = _linear_blend(renderer.body_mesh, M)
+        assert np.abs(body[:, :3] - pos).max() < 1e-3 and np.abs(body[:, 3:] - nrm).max() < 1e-4
+        assert np.abs(ghost[:, :3] - _linear_blend(renderer.body_mesh, G)[0]).max() < 1e-3
+        if caster is not None:
+            assert np.abs(caster - _linear_blend(renderer.shadow_mesh, M, False)[0]).max() < 1e-3
 
 
 def test_sun_fit_holds_casters_and_their_shadows():

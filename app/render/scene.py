@@ -6,8 +6,10 @@ triangle and every shaded pixel costs CPU time):
 * the static scene (sky, ground with the stumps' baked shadow, stadium, stumps) is
   drawn once per camera and size into a colour + depth layer and copied in per
   frame (dragging the target never moves the camera);
-* the batsman is skinned once per pose on the CPU (``skinning.py``) and drawn by
-  the static programs; a coarse copy of him (``BatsmanShadow`` in the glb) casts
+* the batsman is skinned once per pose on the GL side: a transform-feedback pass
+  (``skin.vert``) reads static vertex buffers and one bone-matrix uniform block and
+  writes skinned positions and normals into a buffer that the static programs draw
+  (lit pass, shadow caster, ghost); a coarse copy of him (``BatsmanShadow`` in the glb) casts
   his shadow into a small map fitted tightly around him, redrawn only when the
   pose or the ball moves, and a receiver quad under his shadow darkens the
   (cached) ground, depth-tested after the opaque meshes;
@@ -24,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import props
-from .gl import DynamicBuffer, program, set_uniform
+from .gl import DynamicBuffer, mat_bytes, program, set_uniform, shader_source
 
 IDENTITY = np.eye(4, dtype=np.float32)
 SHADOW_SIZE = 384          # the batsman's shadow map, fitted tightly around him
@@ -105,9 +107,18 @@ def offscreen_context():
     return moderngl.create_standalone_context(backend="egl", require=330)
 
 
+def _skin_program(ctx, num_joints: int, with_normals: bool):
+    """The transform-feedback skinning program (``shaders/skin.vert``, no rasterisation)."""
+    src = shader_source("skin.vert").replace(
+        "#version 330", f"#version 330\n#define NUM_JOINTS {num_joints}\n#define WITH_NORMALS {int(with_normals)}", 1)
+    prog = ctx.program(vertex_shader=src, varyings=["out_pos", "out_normal"] if with_normals else ["out_pos"])
+    prog["Bones"].binding = 0
+    return prog
+
+
 def _vao(ctx, prog, buffers, index_buffer=None):
     """Vertex array binding only the attributes the compiled program kept."""
-    content = [(b, fmt, name) for b, fmt, name in buffers if name in prog]
+    content = [entry for entry in buffers if all(name in prog for name in entry[2:])]
     return ctx.vertex_array(prog, content, index_buffer=index_buffer)
 
 
@@ -124,46 +135,68 @@ class _MeshGPU:
         self.depth = _vao(ctx, depth_prog, [(pos, "3f", "in_pos")], self.ibo)
 
 
+class _Skinner:
+    """Linear-blend skinning on the GL side: one transform-feedback pass per pose
+    (``shaders/skin.vert``) reads static buffers (bind positions, normals, joints, weights)
+    and the bone-matrix uniform block, and writes skinned positions (and normals) into a
+    buffer that the draw passes read like a rigid mesh."""
+
+    def __init__(self, ctx, prog, mesh, with_normals: bool):
+        self.count = len(mesh.positions)
+        self.static = [ctx.buffer(np.ascontiguousarray(a, dtype=dt).tobytes()) for a, dt in (
+            (mesh.positions, "f4"), (mesh.joints, "i4"), (mesh.weights, "f4"))]
+        attrs = [(self.static[0], "3f", "in_pos"), (self.static[1], "4i", "in_joints"),
+                 (self.static[2], "4f", "in_weights")]
+        if with_normals:
+            self.static.append(ctx.buffer(np.ascontiguousarray(mesh.normals, dtype="f4").tobytes()))
+            attrs.append((self.static[3], "3f", "in_normal"))
+        self.vao = _vao(ctx, prog, attrs)
+        self.stride = 24 if with_normals else 12
+        self.out = ctx.buffer(reserve=self.count * self.stride)   # (V, 3[+3]) float32, interleaved
+
+    def skin(self) -> None:
+        """Skin with the matrices currently in the bound bone block."""
+        import moderngl
+        self.vao.transform(self.out, moderngl.POINTS, vertices=self.count)
+
+    def read(self) -> np.ndarray:
+        """The skinned vertices ``(V, 3)`` or ``(V, 6)`` (position, normal) read back (tests)."""
+        return np.frombuffer(self.out.read(), np.float32).reshape(self.count, -1)
+
+
 class _PosedBody:
-    """The batsman skinned on the CPU once per pose (``app.render.skinning``) into dynamic
-    buffers drawn by the static programs: the lit mesh and the coarse shadow caster."""
+    """The batsman skinned on the GL side once per pose (``_Skinner``), drawn by the static
+    programs: the lit mesh and the coarse shadow caster (skinned in the same pass)."""
 
-    def __init__(self, ctx, body_mesh, caster_mesh, lit_prog, depth_prog):
-        from .skinning import SkinnedMesh
-
-        self.body = SkinnedMesh(body_mesh)
-        self.caster = SkinnedMesh(caster_mesh, with_normals=False) if caster_mesh is not None else None
-        V = len(body_mesh.positions)
-        self.pos = ctx.buffer(reserve=V * 12, dynamic=True)
-        self.nrm = ctx.buffer(reserve=V * 12, dynamic=True)
+    def __init__(self, ctx, skin_progs, bones, body_mesh, caster_mesh, lit_prog, depth_prog):
+        self.bones = bones
+        self.body = _Skinner(ctx, skin_progs[True], body_mesh, True)
+        self.caster = _Skinner(ctx, skin_progs[False], caster_mesh, False) if caster_mesh is not None else None
         self.static = [ctx.buffer(np.ascontiguousarray(a, dtype="f4").tobytes())
                        for a in (body_mesh.colors, body_mesh.gloss)]
         self.ibo = ctx.buffer(np.ascontiguousarray(body_mesh.indices, dtype="u4").tobytes())
-        self.lit = _vao(ctx, lit_prog, [(self.pos, "3f", "in_pos"), (self.nrm, "3f", "in_normal"),
+        self.lit = _vao(ctx, lit_prog, [(self.body.out, "3f 3f", "in_pos", "in_normal"),
                                         (self.static[0], "4f", "in_color"), (self.static[1], "1f", "in_gloss")],
                         self.ibo)
         if self.caster is not None:
-            self.caster_pos = ctx.buffer(reserve=len(caster_mesh.positions) * 12, dynamic=True)
             self.caster_ibo = ctx.buffer(np.ascontiguousarray(caster_mesh.indices, dtype="u4").tobytes())
-            self.shadow = _vao(ctx, depth_prog, [(self.caster_pos, "3f", "in_pos")], self.caster_ibo)
+            self.shadow = _vao(ctx, depth_prog, [(self.caster.out, "3f", "in_pos")], self.caster_ibo)
         else:
-            self.caster_pos = None
-            self.shadow = _vao(ctx, depth_prog, [(self.pos, "3f", "in_pos")], self.ibo)
+            self.shadow = _vao(ctx, depth_prog, [(self.body.out, "3f 12x", "in_pos")], self.ibo)
         self.key = None
 
     def update(self, skin_matrices: np.ndarray) -> None:
-        """Skin and upload for ``skin_matrices (J,4,4)`` unless that pose is already there."""
+        """Upload ``skin_matrices (J,4,4)`` (one buffer) and skin unless that pose is already there."""
         m = np.ascontiguousarray(skin_matrices, np.float32)
         key = m.tobytes()
         if key == self.key:
             return
-        pos, nrm = self.body.pose(m)
-        for buf, data in ((self.pos, pos), (self.nrm, nrm)):
-            buf.orphan()
-            buf.write(data)
+        self.bones.orphan()
+        self.bones.write(mat_bytes(m))
+        self.bones.bind_to_uniform_block(0)
+        self.body.skin()
         if self.caster is not None:
-            self.caster_pos.orphan()
-            self.caster_pos.write(self.caster.pose(m)[0])
+            self.caster.skin()
         self.key = key
 
 
@@ -192,8 +225,13 @@ class SceneRenderer:
         if self.shadow_mesh is not None and self.shadow_mesh.joints is None:
             self.shadow_mesh = None
         # the posed batsman; the coarse copy casts the shadow (a third of the triangles, the same outline)
-        self.posed = _PosedBody(ctx, self.body_mesh, self.shadow_mesh, self.p_static, self.p_depth_static)
-        self.ghost_posed = _PosedBody(ctx, self.body_mesh, None, self.p_static, self.p_depth_static)
+        J = rig.skeleton.num_joints
+        skin_progs = {n: _skin_program(ctx, J, n) for n in (True, False)}
+        self.bones = ctx.buffer(reserve=J * 64)      # (J,4,4) float32: the per-pose bone block
+        self.posed = _PosedBody(ctx, skin_progs, self.bones, self.body_mesh, self.shadow_mesh,
+                                self.p_static, self.p_depth_static)
+        self.ghost_posed = _PosedBody(ctx, skin_progs, self.bones, self.body_mesh, None,
+                                      self.p_static, self.p_depth_static)
         self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static)
         self.wickets_mesh = props.wickets()
         self.wickets = _MeshGPU(ctx, self.wickets_mesh, self.p_static, self.p_depth_static)
@@ -503,7 +541,7 @@ class SceneRenderer:
 
     def _draw_ghost(self, view: SceneView, target_fbo) -> None:
         """The source pose, translucent: a depth pre-pass (no colour) so only its nearest
-        surface is shaded; skinned on the CPU into its own buffers."""
+        surface is shaded; skinned (transform feedback) into its own buffers."""
         ctx = self.ctx
         ghost = self.ghost_posed
         ghost.update(view.ghost_skin_matrices)
