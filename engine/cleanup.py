@@ -16,6 +16,7 @@ Each returns the remaining error so the caller can show it.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -93,22 +94,36 @@ def right_hand_targets(rig: Rig, clip_global_rot, clip_global_pos, src_global_ro
 
 def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos,
                         iterations: int = 60, tolerance: float = 0.01):
-    """Solve the right arm in place in ``clip`` so the right hand grips the handle
-    where the source's does. Returns the remaining (F,) errors in cm and degrees."""
+    """Solve the arms in place in ``clip`` so the right hand grips the handle
+    where the source's does. Returns the remaining (F,) errors in cm and degrees.
+
+    Uses the adaptation's compiled solvers (engine.adapt): the right arm alone
+    first; where it cannot reach, both arms together (the torso leans, the left
+    arm gives) with the bat held where it is, and where even that cannot reach,
+    the bat is let go a little toward the right hand."""
+    if not HAVE_NUMBA:          # pragma: no cover - the minimal numpy solver
+        return _reattach_numpy(rig, skeleton, clip, src_global_rot, src_global_pos, iterations, tolerance)
+    lh = rig.skeleton.parents[rig.bat_joint]
+    rh = rig.chains["right_arm"].effector
+    inv_src = quat.conjugate(src_global_rot[:, lh])
+    rel_pos = quat.rotate(inv_src, src_global_pos[:, rh] - src_global_pos[:, lh])
+    rel_rot = quat.mul(inv_src, src_global_rot[:, rh])
+    _solve_grips(rig, skeleton, clip, rel_pos, rel_rot, tolerance)
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    t_pos = g_pos[:, lh] + quat.rotate(g_rot[:, lh], rel_pos)
+    t_rot = quat.mul(g_rot[:, lh], rel_rot)
+    return np.linalg.norm(g_pos[:, rh] - t_pos, axis=-1), quat.angle_between(g_rot[:, rh], t_rot)
+
+
+def _reattach_numpy(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos,
+                    iterations: int = 60, tolerance: float = 0.01):
+    """The right arm alone by numpy CCD + least squares (no numba)."""
     g_rot, g_pos = clip_fk(skeleton, clip)
     t_pos, t_rot = right_hand_targets(rig, g_rot, g_pos, src_global_rot, src_global_pos)
     chain = rig.chains["right_arm"]
     hand = chain.effector
-    try:  # the IK engineer's compiled CCD when it is there (same rules as the adaptation)
-        from . import ccd
-        arrays = ccd.chain_arrays(rig, "right_arm")
-        p = arrays.parent
-        solved, _, _ = ccd.solve(arrays, g_rot[:, p], g_pos[:, p], clip.local_rotations[:, arrays.joints],
-                                 t_pos, tolerance=tolerance, iterations=max(iterations, 200))
-        clip.local_rotations[:, arrays.joints] = solved
-    except ImportError:
-        solve_chain_position(rig, skeleton, clip, chain.joints, hand, t_pos, g_rot, g_pos,
-                             iterations, tolerance)
+    solve_chain_position(rig, skeleton, clip, chain.joints, hand, t_pos, g_rot, g_pos,
+                         iterations, tolerance)
     orient_hand(rig, skeleton, clip, hand, t_rot)
     grip_polish(rig, skeleton, clip, chain.joints, hand, t_pos, t_rot)
     g_rot, g_pos = clip_fk(skeleton, clip)
@@ -377,3 +392,246 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     g_rot, g_pos = clip_fk(skeleton, clip)
     err = np.where(planted, np.linalg.norm(g_pos[:, ankle] - t_pos, axis=-1), 0.0)
     return err, planted
+
+
+
+# ------------------------------------------------- right hand, compiled path
+try:
+    from numba import njit
+
+    from .adapt import GRIP_CM, GRIP_RAD, ORIENT_TOL, _drop_stale_numba_cache, \
+        both_arms_solve, grip_solve, orient_finish
+    from .ccd import _q_at, _q_put, _v_at, ccd_frame, from_euler_zyx, chain_arrays, chain_fk, limit_euler, q_angle, qmul, qrot, \
+        vadd, vnorm, vsub
+    HAVE_NUMBA = True
+except ImportError:             # pragma: no cover
+    HAVE_NUMBA = False
+
+BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
+
+if HAVE_NUMBA:
+    _drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py"))
+
+    @njit(cache=True)
+    def _start_limits(lo, hi, euler, out_lo, out_hi):
+        """The limits ``lo/hi (n,3)`` widened to take in the start angles
+        ``euler (n,3)`` (radians; a pose the new motion put outside its limits may
+        stay there or move back in, never further out). An angle outside is
+        first unwrapped to the side of the limits it is nearer on the circle
+        (as engine.ccd.limit_violation measures it), so the widening does not
+        take in the long way round."""
+        for k in range(lo.shape[0]):
+            for c in range(3):
+                a = euler[k, c]
+                if a > hi[k, c]:
+                    d = (lo[k, c] - a) % (2.0 * math.pi)       # below lo going down
+                    if d < a - hi[k, c]:
+                        a = lo[k, c] - d
+                elif a < lo[k, c]:
+                    d = (a - hi[k, c]) % (2.0 * math.pi)       # above hi going up
+                    if d < lo[k, c] - a:
+                        a = hi[k, c] + d
+                euler[k, c] = a
+                out_lo[k, c] = min(lo[k, c], a)
+                out_hi[k, c] = max(hi[k, c], a)
+
+    @njit(cache=True)
+    def _grip_error(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff, loc_r,
+                    gr_rot, gr_pos, rel_p, rel_q):
+        """FK of both arms: (bat, right hand minus its grip target (3,), angle error rad)."""
+        nl = l_off.shape[0]
+        nr = r_off.shape[0]
+        bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
+        rh = chain_fk(_q_at(gl_rot, rp), _v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
+        g_lh = _q_at(gl_rot, nl - 1)
+        t_pos = vadd(_v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
+        t_rot = qmul(g_lh, rel_q)
+        return bat, vsub(rh, t_pos), q_angle(_q_at(gr_rot, nr - 1), t_rot)
+
+    @njit(cache=True)
+    def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                  r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol, rounds,
+                  g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e):
+        """Both arms onto bat and grip from the given start (in place); where the
+        grip is still out of reach, the bat is moved by what is missing and the
+        solve runs again (``rounds`` times at most), then the right arm alone
+        polishes the grip on the final left hand. Returns a score: the grip error
+        (cm, with 10 cm per radian) plus a little for how far the bat moved."""
+        nl = l_off.shape[0]
+        handle = bat0
+        for _ in range(rounds):
+            both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                            r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, rel_p, rel_q,
+                            tol, ori_tol, 40)
+            bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
+                                     r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
+            if vnorm(d) < GRIP_CM and oe < GRIP_RAD:
+                break
+            handle = vadd(bat, d)
+        chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
+        pr = _q_at(g_rot, rp)
+        pp = _v_at(g_pos, rp)
+        g_lh = _q_at(g_rot, nl - 1)
+        t_pos = vadd(_v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
+        t_rot = qmul(g_lh, rel_q)
+        pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
+                            tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+        bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
+                                 r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
+        return vnorm(d) + GRIP_LENGTH * oe + 1e-3 * vnorm(vsub(bat, bat0))
+
+    @njit(cache=True)
+    def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
+                     rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w, rp, rel_pos, rel_rot,
+                     tol, ori_tol, rounds):
+        """Every frame of ``local (F,J,4)`` (in place; ``euler (F,J,3)`` radians
+        on the limits' branch) gets its right hand onto its grip
+        ``rel_pos (F,3)`` / ``rel_rot (F,4)`` in the left hand's frame.
+        ``hips_*``: the global pose of the left chain's parent per frame."""
+        F = local.shape[0]
+        nl = lj.shape[0]
+        nr = rj.shape[0]
+        nmax = max(nl, nr)
+        g_rot = np.empty((nmax, 4))
+        g_pos = np.empty((nmax, 3))
+        gr_rot = np.empty((nr, 4))
+        gr_pos = np.empty((nr, 3))
+        cols = np.empty((3 * nmax, 3))
+        cols6 = np.empty((3 * nmax, 6))
+        dofs = np.empty((3 * nmax, 2), np.int64)
+        A6 = np.empty((6, 6))
+        x6 = np.empty(6)
+        r6 = np.empty(6)
+        bak_l = np.empty((nmax, 4))
+        bak_e = np.empty((nmax, 3))
+        loc_l = np.empty((nl, 4))
+        eul_l = np.empty((nl, 3))
+        lo_l = np.empty((nl, 3))
+        hi_l = np.empty((nl, 3))
+        loc_r = np.empty((nr, 4))
+        eul_r = np.empty((nr, 3))
+        src_r = np.empty((nr, 3))
+        lo_r = np.empty((nr, 3))
+        hi_r = np.empty((nr, 3))
+        bat_moved = np.zeros(F)
+        start_l = np.empty((nl, 4))
+        start_el = np.empty((nl, 3))
+        best_l = np.empty((nl, 4))
+        best_r = np.empty((nr, 4))
+        best_er = np.empty((nr, 3))
+        prev_er = np.empty((nr, 3))
+        prev_ok = 0
+        for f in range(F):
+            for k in range(nl):
+                for c in range(4):
+                    loc_l[k, c] = local[f, lj[k], c]
+                for c in range(3):
+                    eul_l[k, c] = euler[f, lj[k], c]
+            for k in range(nr):
+                for c in range(4):
+                    loc_r[k, c] = local[f, rj[k], c]
+                for c in range(3):
+                    eul_r[k, c] = euler[f, rj[k], c]
+                    src_r[k, c] = eul_r[k, c]
+            _start_limits(l_lo, l_hi, eul_l, lo_l, hi_l)
+            _start_limits(r_lo, r_hi, eul_r, lo_r, hi_r)
+            for k in range(nr):
+                for c in range(3):
+                    src_r[k, c] = eul_r[k, c]
+            prot = (hips_rot[f, 0], hips_rot[f, 1], hips_rot[f, 2], hips_rot[f, 3])
+            ppos = (hips_pos[f, 0], hips_pos[f, 1], hips_pos[f, 2])
+            rel_p = (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])
+            rel_q = (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])
+            bat0, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off, r_eoff,
+                                      loc_r, gr_rot, gr_pos, rel_p, rel_q)
+            if vnorm(d) < tol and oe < ori_tol:
+                prev_er[:] = eul_r
+                prev_ok = 1
+                continue
+            # 1. the right arm alone: wrist position, then the joints that only turn the hand, then both
+            pr = _q_at(g_rot, rp)
+            pp = _v_at(g_pos, rp)
+            g_lh = _q_at(g_rot, nl - 1)
+            t_pos = vadd(_v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
+            t_rot = qmul(g_lh, rel_q)
+            ccd_frame(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, r_w, t_pos,
+                      tol, 200, gr_rot, gr_pos, cols, dofs, bak_l, bak_e)
+            orient_finish(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, t_rot,
+                          gr_rot, gr_pos, 8, ori_tol)
+            pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
+                                tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+            if pe > GRIP_CM or oe > GRIP_RAD:
+                # 2. out of reach: both arms together (the torso leans, the left arm gives), from
+                # a few starts for the right arm: where the arm-alone solve left it, the new
+                # motion's pose, the previous frame's answer; the closest grip wins
+                for k in range(nl):
+                    for c in range(4):
+                        start_l[k, c] = local[f, lj[k], c]
+                    for c in range(3):
+                        start_el[k, c] = eul_l[k, c]
+                best = 1e300
+                for trial in range(3):
+                    for k in range(nl):
+                        for c in range(4):
+                            loc_l[k, c] = start_l[k, c]
+                        for c in range(3):
+                            eul_l[k, c] = start_el[k, c]
+                    if trial == 1:
+                        for k in range(nr):
+                            for c in range(4):
+                                loc_r[k, c] = local[f, rj[k], c]
+                            for c in range(3):
+                                eul_r[k, c] = src_r[k, c]
+                    elif trial == 2:
+                        if f == 0 or prev_ok == 0:
+                            break
+                        for k in range(nr):     # its free angles; the locked ones stay this frame's
+                            for c in range(3):
+                                eul_r[k, c] = prev_er[k, c] if r_free[k, c] else src_r[k, c]
+                            _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+                    score = _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                                      r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol,
+                                      rounds, g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+                    if score < best:
+                        best = score
+                        best_l[:] = loc_l
+                        best_r[:] = loc_r
+                        best_er[:] = eul_r
+                    if score < 1e-3:
+                        break
+                loc_l[:] = best_l
+                loc_r[:] = best_r
+                eul_r[:] = best_er
+                bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
+                bat_moved[f] = vnorm(vsub(bat, bat0))
+                for k in range(nl):
+                    for c in range(4):
+                        local[f, lj[k], c] = loc_l[k, c]
+            for k in range(nr):
+                for c in range(4):
+                    local[f, rj[k], c] = loc_r[k, c]
+            prev_er[:] = eul_r
+            prev_ok = 1
+        return bat_moved
+
+
+def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, rel_rot: np.ndarray,
+                 tolerance: float) -> np.ndarray:
+    """Right hand onto ``rel_pos (F,3)`` / ``rel_rot (F,4)`` (its grip in the left
+    hand's frame) on every frame of ``clip``, in place. Returns the (F,) distance
+    in cm the bat had to move."""
+    left = chain_arrays(rig, "left_arm")
+    right = chain_arrays(rig, "right_arm")
+    rp = list(left.joints).index(right.parent)
+    g_rot, g_pos = clip_fk(skeleton, clip)
+    local = np.ascontiguousarray(clip.local_rotations, float)
+    euler = np.ascontiguousarray(np.radians(limit_euler(local, rig.limits)))
+    w_l, w_r = (np.ascontiguousarray(c.polish_weight, float) for c in (left, right))
+    moved = _grip_frames(local, euler, np.ascontiguousarray(g_rot[:, left.parent]),
+                         np.ascontiguousarray(g_pos[:, left.parent]),
+                         left.joints, left.offsets, left.eff_off, left.free, left.kind, left.lo, left.hi, w_l,
+                         right.joints, right.offsets, right.eff_off, right.free, right.kind, right.lo,
+                         right.hi, w_r, rp, np.ascontiguousarray(rel_pos, float),
+                         np.ascontiguousarray(rel_rot, float), float(tolerance), ORIENT_TOL, BAT_GIVE_ROUNDS)
+    clip.local_rotations[:] = local
+    return moved

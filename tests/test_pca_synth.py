@@ -215,3 +215,78 @@ def test_plant_targets_follow_near_plants_and_hold_far_ones():
     assert np.allclose(t[18:26], src[18:26])           # near: the source's plant
     assert np.allclose(t[5:12], t[5])                  # far: held still ...
     assert np.isclose(t[5, 2], foot[5:12, 2].mean()) and t[5, 1] == 0.0   # ... where it is, at ground height
+
+
+# ------------------------------------------------ clean-up on the bundled shots
+def _shot_names():
+    import json
+    from pathlib import Path
+    lib = Path(__file__).resolve().parent.parent / "assets" / "shots" / "library.json"
+    return [s["name"] for s in json.loads(lib.read_text())]
+
+
+@pytest.fixture(scope="module")
+def library(rig):
+    from engine.library import load_library
+    return {s.name: s for s in load_library(rig=rig)}
+
+
+GRIP_CASES = [("source", None), ("exaggerated", 0.25), ("exaggerated", 0.5), ("exaggerated", 1.0),
+              ("toned_down", 0.25), ("toned_down", 0.9), ("aborted", 0.25), ("aborted", 1.0)]
+
+
+def _grip_errors(rig, clip, src):
+    """(F,) right-hand position (cm) and angle (deg) errors against the source grip."""
+    g_rot, g_pos = clip_fk(rig.skeleton, clip)
+    s_rot, s_pos = clip_fk(rig.skeleton, src)
+    m = cleanup.frame_map(clip.num_frames, src.num_frames)
+    t_pos, t_rot = cleanup.right_hand_targets(rig, g_rot, g_pos, s_rot[m], s_pos[m])
+    hand = rig.chains["right_arm"].effector
+    return np.linalg.norm(g_pos[:, hand] - t_pos, axis=1), quat.angle_between(g_rot[:, hand], t_rot)
+
+
+@pytest.mark.parametrize("name", _shot_names())
+def test_cleanup_keeps_both_hands_on_the_handle(rig, library, name):
+    """Every preset of every bundled shot (and its own 2-PC path): after the
+    clean-up the right hand holds its source grip on the handle (< 0.5 cm,
+    < 5 deg), no joint is pushed further outside its limits than the new motion
+    had it, locked DOFs stay locked, the bat moves only a little and the feet
+    stay planted exactly as the foot fix alone leaves them."""
+    from engine.ccd import limit_euler, limit_violation
+    shot = library[name]
+    space = pcam.fit_clip(rig, shot.clip, "body")
+    sections = synth.shot_sections(shot.fk[1][:, rig.bat_joint], shot.hit_frame)
+    base = synth.source_path(space)
+    legs = [0] + [j for side in ("left_leg", "right_leg") for j in rig.chains[side].joints] + \
+        [rig.feet["left"][1], rig.feet["right"][1]]
+    arms = sorted(set(rig.chains["left_arm"].joints) | set(rig.chains["right_arm"].joints))
+    locked = ~rig.dof_mask()[arms]
+    for preset, amount in GRIP_CASES:
+        path = base if amount is None else synth.preset_path(base, preset, amount, sections)
+        anim = synth.synthesise(space, path, frames=shot.num_frames)
+        feet = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, fix_hand=False, plant_feet=True)
+        res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip)
+        case = f"{name} {preset} {amount}"
+        cm, deg = _grip_errors(rig, res.clip, shot.clip)
+        assert cm.max() < 0.5 and deg.max() < 5.0, case
+        assert np.allclose(cm, res.hand_error_cm, atol=1e-6) and np.allclose(deg, res.hand_error_deg, atol=1e-4)
+        assert np.allclose(np.linalg.norm(res.clip.local_rotations, axis=-1), 1)
+        # limits: the hand fix never takes a joint further out than it was
+        before = limit_violation(feet.clip.local_rotations, rig.limits)
+        after = limit_violation(res.clip.local_rotations, rig.limits)
+        assert np.all(after <= before + 0.01), case
+        # locked DOFs of the arm chains keep their angles
+        e0 = limit_euler(feet.clip.local_rotations, rig.limits)[:, arms]
+        e1 = limit_euler(res.clip.local_rotations, rig.limits)[:, arms]
+        d = np.abs((e1 - e0 + 180.0) % 360.0 - 180.0)
+        assert np.all(d[:, locked] < 1e-4), case
+        # the feet: the hand fix moves nothing below the spine
+        assert np.array_equal(res.clip.local_rotations[:, legs], feet.clip.local_rotations[:, legs])
+        assert np.array_equal(res.clip.root_positions, feet.clip.root_positions)
+        for side in ("left", "right"):
+            assert np.array_equal(res.planted[side], feet.planted[side])
+            assert np.allclose(res.foot_error_cm[side], feet.foot_error_cm[side])
+        # the bat may give a little where the right arm cannot reach
+        _, p0 = clip_fk(rig.skeleton, feet.clip)
+        _, p1 = clip_fk(rig.skeleton, res.clip)
+        assert np.linalg.norm(p1[:, rig.bat_joint] - p0[:, rig.bat_joint], axis=1).max() < 5.0, case
