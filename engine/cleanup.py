@@ -65,7 +65,7 @@ def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bo
     """
     out = clip.copy()
     m = frame_map(clip.num_frames, source.num_frames) if source_frames is None else np.asarray(source_frames)
-    src_rot, src_pos = clip_fk(skeleton, source)
+    src_rot, src_pos = _fk(skeleton, source)
     res = CleanupResult(out)
     if plant_feet:
         # feet first: the hand fix does not move the legs, the leg fix moves nothing above the hips
@@ -109,7 +109,7 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
     rel_pos = quat.rotate(inv_src, src_global_pos[:, rh] - src_global_pos[:, lh])
     rel_rot = quat.mul(inv_src, src_global_rot[:, rh])
     _solve_grips(rig, skeleton, clip, rel_pos, rel_rot, tolerance)
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     t_pos = g_pos[:, lh] + quat.rotate(g_rot[:, lh], rel_pos)
     t_rot = quat.mul(g_rot[:, lh], rel_rot)
     return np.linalg.norm(g_pos[:, rh] - t_pos, axis=-1), quat.angle_between(g_rot[:, rh], t_rot)
@@ -118,7 +118,7 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
 def _reattach_numpy(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos,
                     iterations: int = 60, tolerance: float = 0.01):
     """The right arm alone by numpy CCD + least squares (no numba)."""
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     t_pos, t_rot = right_hand_targets(rig, g_rot, g_pos, src_global_rot, src_global_pos)
     chain = rig.chains["right_arm"]
     hand = chain.effector
@@ -126,7 +126,7 @@ def _reattach_numpy(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, sr
                          iterations, tolerance)
     orient_hand(rig, skeleton, clip, hand, t_rot)
     grip_polish(rig, skeleton, clip, chain.joints, hand, t_pos, t_rot)
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     err_cm = np.linalg.norm(g_pos[:, hand] - t_pos, axis=-1)
     err_deg = quat.angle_between(g_rot[:, hand], t_rot)
     return err_cm, err_deg
@@ -145,7 +145,7 @@ def grip_polish(rig: Rig, skeleton: Skeleton, clip: Clip, joints: list[int], han
     joints = [j for j in joints if rig.dof[j].any()]
     t = local_translations(skeleton, clip)
     path = skeleton.chain(skeleton.names[joints[0]], skeleton.names[hand])
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     top = skeleton.parents[path[0]]
     base_rot, base_pos = g_rot[:, top], g_pos[:, top]
     local = clip.local_rotations
@@ -203,7 +203,7 @@ def orient_hand(rig: Rig, skeleton: Skeleton, clip: Clip, hand: int, target_rot:
     """Turn ``hand`` to ``target_rot (F, 4)`` without moving it: the twist about
     the forearm (local x, along the bone) goes to the roll joint above the hand
     when it has that one DOF, the swing to the hand; both within their limits."""
-    g_rot, _ = clip_fk(skeleton, clip)
+    g_rot, _ = _fk(skeleton, clip)
     off = quat.angle_between(g_rot[:, hand], target_rot) > 0.05       # frames already right stay as they are
     if not off.any():
         return
@@ -262,7 +262,7 @@ def solve_chain_position(rig: Rig, skeleton: Skeleton, clip: Clip, joints: list[
     through it. Returns the remaining (F,) error in cm.
     """
     if g_rot is None:
-        g_rot, g_pos = clip_fk(skeleton, clip)
+        g_rot, g_pos = _fk(skeleton, clip)
     t = local_translations(skeleton, clip)
     path = skeleton.chain(skeleton.names[joints[0]], skeleton.names[effector])
     top = skeleton.parents[path[0]]
@@ -363,7 +363,7 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     if not w.any():
         return np.zeros(F), planted
     sel = w > 0
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     t_pos = plant_targets(g_pos[:, ankle], src_global_pos[source_frames, ankle], planted)
     t_rot = src_global_rot[source_frames, ankle]
     target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
@@ -382,14 +382,14 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     knee_euler[:, 2] = flex
     local[sel, knee] = quat.from_euler(knee_euler, "ZYX")
     # hip: swing the whole leg so the ankle points at the target
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     swing = quat.between(g_pos[sel, ankle] - H, target[sel] - H)
     new_hip_global = quat.mul(swing, g_rot[sel, hip])
     local[sel, hip] = quat.mul(quat.conjugate(g_rot[sel, skeleton.parents[hip]]), new_hip_global)
     # foot: the target orientation in the new shin frame
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     local[sel, ankle] = quat.mul(quat.conjugate(g_rot[sel, knee]), target_rot[sel])
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     err = np.where(planted, np.linalg.norm(g_pos[:, ankle] - t_pos, axis=-1), 0.0)
     return err, planted
 
@@ -411,6 +411,25 @@ BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand
 
 if HAVE_NUMBA:
     _drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py"))
+
+    @njit(cache=True)
+    def _fk_frames(parents, trans, local, out_rot, out_pos):
+        """Global rotations/positions of every frame (parents before children)."""
+        for f in range(local.shape[0]):
+            for j in range(parents.shape[0]):
+                p = parents[j]
+                q = (local[f, j, 0], local[f, j, 1], local[f, j, 2], local[f, j, 3])
+                t = (trans[f, j, 0], trans[f, j, 1], trans[f, j, 2])
+                if p < 0:
+                    g, x = q, t
+                else:
+                    pr = (out_rot[f, p, 0], out_rot[f, p, 1], out_rot[f, p, 2], out_rot[f, p, 3])
+                    g = qmul(pr, q)
+                    x = vadd((out_pos[f, p, 0], out_pos[f, p, 1], out_pos[f, p, 2]), qrot(pr, t))
+                for c in range(4):
+                    out_rot[f, j, c] = g[c]
+                for c in range(3):
+                    out_pos[f, j, c] = x[c]
 
     @njit(cache=True)
     def _start_limits(lo, hi, euler, out_lo, out_hi):
@@ -623,7 +642,7 @@ def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, 
     left = chain_arrays(rig, "left_arm")
     right = chain_arrays(rig, "right_arm")
     rp = list(left.joints).index(right.parent)
-    g_rot, g_pos = clip_fk(skeleton, clip)
+    g_rot, g_pos = _fk(skeleton, clip)
     local = np.ascontiguousarray(clip.local_rotations, float)
     euler = np.ascontiguousarray(np.radians(limit_euler(local, rig.limits)))
     w_l, w_r = (np.ascontiguousarray(c.polish_weight, float) for c in (left, right))
@@ -635,3 +654,15 @@ def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, 
                          np.ascontiguousarray(rel_rot, float), float(tolerance), ORIENT_TOL, BAT_GIVE_ROUNDS)
     clip.local_rotations[:] = local
     return moved
+
+
+def _fk(skeleton: Skeleton, clip: Clip) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`engine.skeleton.clip_fk`, compiled (the clean-up runs FK a dozen times)."""
+    parents = np.asarray(skeleton.parents, np.int64)
+    if not HAVE_NUMBA or np.any(parents >= np.arange(len(parents))):
+        return clip_fk(skeleton, clip)
+    F, J = clip.num_frames, len(parents)
+    g_rot, g_pos = np.empty((F, J, 4)), np.empty((F, J, 3))
+    _fk_frames(parents, np.ascontiguousarray(local_translations(skeleton, clip), float),
+               np.ascontiguousarray(clip.local_rotations, float), g_rot, g_pos)
+    return g_rot, g_pos
