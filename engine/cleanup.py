@@ -368,6 +368,17 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     t_rot = src_global_rot[source_frames, ankle]
     target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
     target_rot = quat.slerp(g_rot[:, ankle], t_rot, w)
+    if HAVE_NUMBA:
+        _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, target, target_rot, sel)
+    else:                       # pragma: no cover - closed-form two-bone IK (ignores the hip's limits)
+        _two_bone(rig, skeleton, clip, hip, knee, ankle, g_rot, g_pos, target, target_rot, sel)
+    g_rot, g_pos = _fk(skeleton, clip)
+    err = np.where(planted, np.linalg.norm(g_pos[:, ankle] - t_pos, axis=-1), 0.0)
+    return err, planted
+
+
+def _two_bone(rig, skeleton, clip, hip, knee, ankle, g_rot, g_pos, target, target_rot, sel):
+    """Hip swing + knee hinge + foot turn of the ``sel (F,)`` frames, in place."""
     local = clip.local_rotations
     a = np.linalg.norm(skeleton.offsets[knee])
     b = np.linalg.norm(skeleton.offsets[ankle])
@@ -389,9 +400,6 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     # foot: the target orientation in the new shin frame
     g_rot, g_pos = _fk(skeleton, clip)
     local[sel, ankle] = quat.mul(quat.conjugate(g_rot[sel, knee]), target_rot[sel])
-    g_rot, g_pos = _fk(skeleton, clip)
-    err = np.where(planted, np.linalg.norm(g_pos[:, ankle] - t_pos, axis=-1), 0.0)
-    return err, planted
 
 
 
@@ -401,7 +409,8 @@ try:
 
     from .adapt import GRIP_CM, GRIP_RAD, ORIENT_TOL, _drop_stale_numba_cache, \
         both_arms_solve, grip_solve, orient_finish
-    from .ccd import _q_at, _q_put, _v_at, ccd_frame, from_euler_zyx, chain_arrays, chain_fk, limit_euler, q_angle, qmul, qrot, \
+    from .ccd import _q_at, _q_put, _v_at, ccd_frame, clamp_angle, from_euler_zyx, pick_branch, qconj, \
+        to_euler_zyx, chain_arrays, chain_fk, limit_euler, q_angle, qmul, qrot, \
         vadd, vnorm, vsub
     HAVE_NUMBA = True
 except ImportError:             # pragma: no cover
@@ -430,6 +439,60 @@ if HAVE_NUMBA:
                     out_rot[f, j, c] = g[c]
                 for c in range(3):
                     out_pos[f, j, c] = x[c]
+
+    @njit(cache=True)
+    def _leg_frames(local, euler, parent_rot, parent_pos, sel, lj, off, eoff, free, kind, lo, hi, w,
+                    ankle, a_free, a_lo, a_hi, target, target_rot, tol):
+        """Each selected frame: the leg chain ``lj`` (hip, knee, ankle) by CCD so
+        the ankle reaches ``target (F,3)``, then the ankle joint turned toward
+        ``target_rot (F,4)``; limits widened only to the start pose, locked
+        columns kept. In place on ``local (F,J,4)`` (``euler`` radians, limit branch)."""
+        n = lj.shape[0]
+        g_rot = np.empty((n, 4))
+        g_pos = np.empty((n, 3))
+        cols = np.empty((3 * n, 3))
+        dofs = np.empty((3 * n, 2), np.int64)
+        bak_l = np.empty((n, 4))
+        bak_e = np.empty((n, 3))
+        loc = np.empty((n, 4))
+        eul = np.empty((n, 3))
+        src = np.empty((n, 3))
+        lo_w = np.empty((n, 3))
+        hi_w = np.empty((n, 3))
+        ea = np.empty((1, 3))
+        lo_a = np.empty((1, 3))
+        hi_a = np.empty((1, 3))
+        for f in range(local.shape[0]):
+            if not sel[f]:
+                continue
+            for k in range(n):
+                for c in range(4):
+                    loc[k, c] = local[f, lj[k], c]
+                for c in range(3):
+                    eul[k, c] = euler[f, lj[k], c]
+            _start_limits(lo, hi, eul, lo_w, hi_w)
+            src[:] = eul
+            prot = (parent_rot[f, 0], parent_rot[f, 1], parent_rot[f, 2], parent_rot[f, 3])
+            ppos = (parent_pos[f, 0], parent_pos[f, 1], parent_pos[f, 2])
+            ccd_frame(prot, ppos, off, eoff, loc, eul, src, free, kind, lo_w, hi_w, w,
+                      (target[f, 0], target[f, 1], target[f, 2]), tol, 200, g_rot, g_pos, cols, dofs,
+                      bak_l, bak_e)
+            chain_fk(prot, ppos, off, eoff, loc, g_rot, g_pos)
+            for k in range(n):
+                for c in range(4):
+                    local[f, lj[k], c] = loc[k, c]
+            # the foot: its target orientation in the new shin frame, within its limits
+            for c in range(3):
+                ea[0, c] = euler[f, ankle, c]
+            _start_limits(a_lo, a_hi, ea, lo_a, hi_a)
+            want = qmul(qconj(_q_at(g_rot, n - 2)), (target_rot[f, 0], target_rot[f, 1], target_rot[f, 2],
+                                                      target_rot[f, 3]))
+            e = pick_branch(to_euler_zyx(want), ea, ea, a_free, lo_a, hi_a, 0)
+            for c in range(3):
+                ea[0, c] = clamp_angle(e[c], lo_a[0, c], hi_a[0, c]) if a_free[0, c] else ea[0, c]
+            q = from_euler_zyx(ea[0, 0], ea[0, 1], ea[0, 2])
+            for c in range(4):
+                local[f, ankle, c] = q[c]
 
     @njit(cache=True)
     def _start_limits(lo, hi, euler, out_lo, out_hi):
@@ -666,3 +729,20 @@ def _fk(skeleton: Skeleton, clip: Clip) -> tuple[np.ndarray, np.ndarray]:
     _fk_frames(parents, np.ascontiguousarray(local_translations(skeleton, clip), float),
                np.ascontiguousarray(clip.local_rotations, float), g_rot, g_pos)
     return g_rot, g_pos
+
+
+def _solve_leg(rig: Rig, skeleton: Skeleton, clip: Clip, chain_name: str, g_rot, g_pos, target, target_rot,
+               sel) -> None:
+    """Leg chain IK (compiled CCD, the rig's limits and DOFs) of the ``sel (F,)``
+    frames toward ankle ``target (F,3)`` and foot orientation ``target_rot (F,4)``, in place."""
+    ch = chain_arrays(rig, chain_name)
+    local = np.ascontiguousarray(clip.local_rotations, float)
+    euler = np.ascontiguousarray(np.radians(limit_euler(local, rig.limits)))
+    a = int(ch.effector)
+    lim = np.radians(rig.limits[a])
+    _leg_frames(local, euler, np.ascontiguousarray(g_rot[:, ch.parent]), np.ascontiguousarray(g_pos[:, ch.parent]),
+                np.ascontiguousarray(sel), ch.joints, ch.offsets, ch.eff_off, ch.free, ch.kind, ch.lo, ch.hi,
+                np.ascontiguousarray(ch.polish_weight, float), a, rig.dof[a][None].copy(),
+                np.ascontiguousarray(lim[None, :, 0]), np.ascontiguousarray(lim[None, :, 1]),
+                np.ascontiguousarray(target, float), np.ascontiguousarray(target_rot, float), 1e-3)
+    clip.local_rotations[:] = local

@@ -250,8 +250,8 @@ def test_cleanup_keeps_both_hands_on_the_handle(rig, library, name):
     """Every preset of every bundled shot (and its own 2-PC path): after the
     clean-up the right hand holds its source grip on the handle (< 0.5 cm,
     < 5 deg), no joint is pushed further outside its limits than the new motion
-    had it, locked DOFs stay locked, the bat moves only a little and the feet
-    stay planted exactly as the foot fix alone leaves them."""
+    had it (hands and feet), locked DOFs stay locked, the bat moves only a
+    little and the feet stay planted exactly as the foot fix alone leaves them."""
     from engine.ccd import limit_euler, limit_violation
     shot = library[name]
     space = pcam.fit_clip(rig, shot.clip, "body")
@@ -271,8 +271,8 @@ def test_cleanup_keeps_both_hands_on_the_handle(rig, library, name):
         assert cm.max() < 0.5 and deg.max() < 5.0, case
         assert np.allclose(cm, res.hand_error_cm, atol=1e-6) and np.allclose(deg, res.hand_error_deg, atol=1e-4)
         assert np.allclose(np.linalg.norm(res.clip.local_rotations, axis=-1), 1)
-        # limits: the hand fix never takes a joint further out than it was
-        before = limit_violation(feet.clip.local_rotations, rig.limits)
+        # limits: the clean-up never takes a joint further out than the new motion had it
+        before = limit_violation(anim.local_rotations, rig.limits)
         after = limit_violation(res.clip.local_rotations, rig.limits)
         assert np.all(after <= before + 0.01), case
         # locked DOFs of the arm chains keep their angles
