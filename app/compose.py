@@ -42,6 +42,7 @@ class Compositor:
         self.cache: moderngl.Framebuffer | None = None    # copy of the last scene (scale 1)
         self.scaled: moderngl.Framebuffer | None = None   # scene at render scale < 1
         self.scene_key: str | None = None                 # what cache/scaled holds
+        self.drawn_key: str | None = None                 # direct: last scene drawn, uncached
         self.viewport_px = (0, 0, 1, 1)                   # GL pixels, bottom-left origin
         prog = ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_BLIT_FS)
         quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
@@ -74,22 +75,31 @@ class Compositor:
         return tuple(size)
 
     def invalidate(self) -> None:
-        self.scene_key = None
+        self.scene_key = None       # what the cache holds (direct) / what ``scaled`` holds
+        self.drawn_key = None       # direct: the scene last drawn into the frame (not cached)
 
     def draw_scene(self, key: str | None, render) -> None:
         """``render(fbo)`` draws the scene at origin into ``fbo``; skipped (the
-        cached image is used) when ``key`` equals the last one drawn."""
+        cached image is used) when ``key`` equals the last one cached.
+
+        At scale 1 the scene is drawn straight into the frame, and copied into the
+        cache only when a scene repeats (the first idle frame after a drag or a
+        playback draws it once more and keeps it): while the scene changes every
+        frame (dragging, playing) no frame pays for a full-frame copy it never reuses."""
         ctx = self.ctx
         if self.direct:
             if key is not None and key == self.scene_key:
                 ctx.copy_framebuffer(self.frame, self.cache)      # restore the unchanged scene
                 return
-            self.scene_key = None
+            repeat = key is not None and key == self.drawn_key
+            self.drawn_key = None
             if render(self.frame):
-                ctx.copy_framebuffer(self.cache, self.frame)      # keep it for idle frames
-                self.scene_key = key
-            else:
-                ctx.copy_framebuffer(self.frame, self.cache)      # the last good image
+                self.drawn_key = key
+                if repeat:
+                    ctx.copy_framebuffer(self.cache, self.frame)  # keep it for idle frames
+                    self.scene_key = key
+            elif self.scene_key is not None:
+                ctx.copy_framebuffer(self.frame, self.cache)      # the last cached good image
             return
         if key is None or key != self.scene_key:
             self.scene_key = key if render(self.scaled) else None

@@ -245,3 +245,23 @@ def test_cached_layers_follow_camera_and_ghost(renderer, rig):
     other_ghost = render(renderer, dataclasses.replace(a, ghost_skin_matrices=M))
     assert changed(first, no_ghost).sum() > 100 and changed(first, other_ghost).sum() > 100
     assert np.array_equal(render(renderer, a), first)
+
+
+def test_antialias_toggle_softens_edges_only(renderer, rig):
+    """Into a single-sampled target, ``antialias`` changes pixels along edges only (a small
+    share of the image, some of them on the batsman's outline) and keeps the picture."""
+    _, M = pose(rig, ARMS_DOWN)
+    ctx = renderer.ctx
+    with ctx:
+        fbo = ctx.framebuffer([ctx.texture(SIZE, 4)], ctx.depth_renderbuffer(SIZE))
+
+        def shot(aa):
+            renderer.render(view_of(M, antialias=aa, ball_position=ROOT + (0.0, 40.0, 120.0)), fbo)
+            return np.frombuffer(fbo.read(components=3), np.uint8).reshape(SIZE[1], SIZE[0], 3)[::-1].astype(int)
+
+        off, on, off_again = shot(False), shot(True), shot(False)
+        fbo.release()
+    assert np.array_equal(off, off_again)
+    diff = changed(off, on, tol=6)
+    assert 0.002 < diff.mean() < 0.15
+    assert np.abs(off.mean((0, 1)) - on.mean((0, 1))).max() < 3.0

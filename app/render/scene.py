@@ -66,6 +66,7 @@ class SceneView:
     shadows: bool = True
     skeleton_width_px: float = 3.0
     skeleton_on_top: bool = True  # skeleton lines ignore depth (visible inside the mesh)
+    antialias: bool = False       # single-sampled targets: MSAA-resolved static layer, FXAA on what moves
 
 
 def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
@@ -114,6 +115,19 @@ def _skin_program(ctx, num_joints: int, with_normals: bool):
     prog = ctx.program(vertex_shader=src, varyings=["out_pos", "out_normal"] if with_normals else ["out_pos"])
     prog["Bones"].binding = 0
     return prog
+
+
+def _project_rect(points: np.ndarray, vp: np.ndarray) -> tuple | None:
+    """NDC rectangle (x0, y0, x1, y1) holding world ``points (N,3)``; the whole viewport when
+    they cross the eye plane, None when off screen (or all behind the eye)."""
+    clip = np.concatenate([points, np.ones((len(points), 1))], 1) @ vp.astype(float).T
+    if np.all(clip[:, 3] <= 1e-3):
+        return None
+    if np.any(clip[:, 3] <= 1e-3):
+        return (-1.0, -1.0, 1.0, 1.0)
+    ndc = clip[:, :2] / clip[:, 3:]
+    lo, hi = np.clip(ndc.min(0), -1, 1), np.clip(ndc.max(0), -1, 1)
+    return None if np.any(hi <= lo) else (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
 def _vao(ctx, prog, buffers, index_buffer=None):
@@ -260,6 +274,9 @@ class SceneRenderer:
         self._joint_boxes = joint_boxes(self.body_mesh, rig.skeleton.num_joints)
         self._static = _Layer()     # sky, ground, stadium, wickets for one camera and size
         self._ghost = _Layer()      # the translucent ghost's nearest surface (colour + depth)
+        self._aa = _Layer()         # antialiased drawing target (MSAA, or the frame before FXAA)
+        self.p_fxaa = program(ctx, "fxaa.vert", "fxaa.frag")
+        self.fxaa_vao = ctx.vertex_array(self.p_fxaa, [])
         lo, hi = self.wickets_mesh.positions.min(0), self.wickets_mesh.positions.max(0)
         near_stumps = np.array(np.meshgrid(*zip(lo, (hi[0], hi[1], min(hi[2], 50.0))))).reshape(3, -1).T
         self._static_fit = fit_sun(near_stumps, STATIC_SHADOW_SIZE)   # the batting end's stumps
@@ -399,23 +416,79 @@ class SceneRenderer:
         self.sky.render(vertices=3)
         ctx.depth_func = "<"
 
-    def _static_layer(self, view: SceneView, target, vp, eye, shadows: bool):
+    def _static_layer(self, view: SceneView, target, vp, eye, shadows: bool, aa: bool = False):
         """The static scene for this camera and size, drawn once into an offscreen framebuffer
-        of the target's sample count; None when ``target`` cannot take a depth blit."""
+        of the target's sample count (with ``aa``, a single-sampled target: drawn with 4x MSAA
+        and resolved); None when ``target`` cannot take a depth blit."""
         if target is self.ctx.screen or getattr(target, "depth_attachment", None) is None:
             return None
         samples = int(getattr(target, "samples", 0) or 0)
+        msaa = min(4, self.ctx.max_samples) if aa and samples == 0 else 0
         key = (tuple(view.size), samples, np.asarray(view.view, np.float32).tobytes(),
-               np.asarray(view.proj, np.float32).tobytes(), bool(view.show_pitch), shadows)
+               np.asarray(view.proj, np.float32).tobytes(), bool(view.show_pitch), shadows, msaa)
         layer = self._static
         if layer.key != key:
             fbo = layer.framebuffer(self.ctx, tuple(view.size), samples, textures=False)
-            self._draw_static(view, fbo, vp, eye, shadows)
+            if msaa > 1:
+                tmp = _Layer()
+                self._draw_static(view, tmp.framebuffer(self.ctx, tuple(view.size), msaa, False), vp, eye, shadows)
+                self.ctx.copy_framebuffer(fbo, tmp.fbo)      # resolve colour and depth
+                tmp.release()
+            else:
+                self._draw_static(view, fbo, vp, eye, shadows)
             layer.key = key
         return layer.fbo
 
     def render(self, view: SceneView, fbo=None) -> None:
-        """Draw the scene into ``fbo`` (default: the screen), including the shadow pass.
+        """Draw the scene into ``fbo`` (default: the screen), antialiased when ``fbo`` is
+        single-sampled and ``view.antialias`` (default on): the cached static layer is drawn
+        with 4x MSAA and resolved (once per camera), and the moving things (batsman, ghost,
+        ball, target) get an FXAA pass over their screen boxes only. A multisampled ``fbo``
+        is drawn into directly (``render_image``: MSAA over everything)."""
+        import moderngl
+
+        ctx = self.ctx
+        target = fbo if fbo is not None else ctx.screen
+        aa = bool(view.antialias) and int(getattr(target, "samples", 0) or 0) == 0
+        if not aa or target is ctx.screen or getattr(target, "depth_attachment", None) is None:
+            return self._render(view, target, aa=False)
+        size = tuple(view.size)
+        frame = self._aa.framebuffer(ctx, size, 0, textures=True)
+        self._aa.color.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self._render(view, frame, aa=True)
+        ctx.copy_framebuffer(target, frame)
+        rects = self._moving_rects(view, self._vp, size)
+        if not rects:
+            return
+        target.use()
+        ctx.viewport = (0, 0, *size)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        self._aa.color.use(0)
+        set_uniform(self.p_fxaa, "u_color", 0)
+        set_uniform(self.p_fxaa, "u_texel", (1.0 / size[0], 1.0 / size[1]))
+        for rect in rects:
+            set_uniform(self.p_fxaa, "u_rect", rect)
+            self.fxaa_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
+        ctx.enable(moderngl.DEPTH_TEST)
+
+    def _moving_rects(self, view: SceneView, vp: np.ndarray, size) -> list:
+        """NDC rectangles (x0, y0, x1, y1), a few pixels wider, round what moves between
+        frames: the batsman with his ghost, the ball, the target."""
+        pad = 3.0 * 2.0 / np.asarray(size, float)
+        found = []
+        skins = [m for m in (view.skin_matrices, view.ghost_skin_matrices) if m is not None]
+        if skins:
+            found.append(_project_rect(np.concatenate(
+                [skinned_box_corners(m, self._joint_boxes) for m in skins]), vp))
+        cube = np.array(np.meshgrid(*[[-1.0, 1.0]] * 3)).reshape(3, -1).T
+        if view.ball_position is not None:
+            found.append(_project_rect(np.asarray(view.ball_position, float) + 4.0 * cube, vp))
+        if view.target_position is not None:
+            found.append(_project_rect(np.asarray(view.target_position, float) + 32.0 * cube, vp))
+        return [(r[0] - pad[0], r[1] - pad[1], r[2] + pad[0], r[3] + pad[1]) for r in found if r is not None]
+
+    def _render(self, view: SceneView, fbo, aa: bool) -> None:
+        """Draw the scene into ``fbo``, including the shadow pass.
 
         The static scene (sky, ground with the stumps' shadow, stadium, stumps) is drawn once
         per camera and size into a cached colour + depth layer and copied in. Per frame only
@@ -427,7 +500,7 @@ class SceneRenderer:
         import moderngl
 
         ctx = self.ctx
-        target_fbo = fbo if fbo is not None else ctx.screen
+        target_fbo = fbo
         w, h = view.size
         vp = (np.asarray(view.proj, np.float32) @ np.asarray(view.view, np.float32))
         self._vp = vp
@@ -437,7 +510,7 @@ class SceneRenderer:
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         ctx.depth_func = "<"
         shadows = bool(view.shadows)
-        static = self._static_layer(view, target_fbo, vp, eye, shadows)
+        static = self._static_layer(view, target_fbo, vp, eye, shadows, aa)
         ghost = self._ghost_layer(view, vp, eye) if static is not None else None
         if static is None:
             self._draw_static(view, target_fbo, vp, eye, shadows)
