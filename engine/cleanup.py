@@ -531,6 +531,15 @@ if HAVE_NUMBA:
         return bat, vsub(rh, t_pos), q_angle(_q_at(gr_rot, nr - 1), t_rot)
 
     @njit(cache=True)
+    def _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi):
+        """The right arm's free angles from the previous frame (within this frame's
+        limits), its locked ones this frame's."""
+        for k in range(loc_r.shape[0]):
+            for c in range(3):
+                eul_r[k, c] = min(max(prev_er[k, c], lo[k, c]), hi[k, c]) if free[k, c] else src_r[k, c]
+            _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+
+    @njit(cache=True)
     def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
                   r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol, rounds,
                   g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e):
@@ -602,6 +611,8 @@ if HAVE_NUMBA:
         best_r = np.empty((nr, 4))
         best_er = np.empty((nr, 3))
         prev_er = np.empty((nr, 3))
+        ccd_r = np.empty((nr, 4))
+        ccd_er = np.empty((nr, 3))
         prev_ok = 0
         for f in range(F):
             for k in range(nl):
@@ -630,18 +641,31 @@ if HAVE_NUMBA:
                 prev_er[:] = eul_r
                 prev_ok = 1
                 continue
-            # 1. the right arm alone: wrist position, then the joints that only turn the hand, then both
+            # 1. the right arm alone. Frames follow each other: first from the previous frame's
+            # answer (so the arm moves smoothly instead of jumping between the several poses
+            # that hold the grip), else wrist position, the joints that only turn the hand, both
             pr = _q_at(g_rot, rp)
             pp = _v_at(g_pos, rp)
             g_lh = _q_at(g_rot, nl - 1)
             t_pos = vadd(_v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
             t_rot = qmul(g_lh, rel_q)
-            ccd_frame(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, r_w, t_pos,
-                      tol, 200, gr_rot, gr_pos, cols, dofs, bak_l, bak_e)
-            orient_finish(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, t_rot,
-                          gr_rot, gr_pos, 8, ori_tol)
-            pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                                tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+            pe = 1e300
+            oe = 1e300
+            if prev_ok:
+                _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
+                pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
+                                    tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+            if pe > GRIP_CM or oe > GRIP_RAD:
+                for k in range(nr):
+                    for c in range(4):
+                        loc_r[k, c] = local[f, rj[k], c]
+                eul_r[:] = src_r
+                ccd_frame(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, r_w, t_pos,
+                          tol, 200, gr_rot, gr_pos, cols, dofs, bak_l, bak_e)
+                orient_finish(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, t_rot,
+                              gr_rot, gr_pos, 8, ori_tol)
+                pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
+                                    tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
             if pe > GRIP_CM or oe > GRIP_RAD:
                 # 2. out of reach: both arms together (the torso leans, the left arm gives), from
                 # a few starts for the right arm: where the arm-alone solve left it, the new
@@ -652,25 +676,26 @@ if HAVE_NUMBA:
                     for c in range(3):
                         start_el[k, c] = eul_l[k, c]
                 best = 1e300
+                ccd_r[:] = loc_r
+                ccd_er[:] = eul_r
                 for trial in range(3):
                     for k in range(nl):
                         for c in range(4):
                             loc_l[k, c] = start_l[k, c]
                         for c in range(3):
                             eul_l[k, c] = start_el[k, c]
-                    if trial == 1:
+                    if trial == 0:
+                        if not prev_ok:
+                            continue
+                        _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
+                    elif trial == 1:
+                        loc_r[:] = ccd_r
+                        eul_r[:] = ccd_er
+                    else:
                         for k in range(nr):
                             for c in range(4):
                                 loc_r[k, c] = local[f, rj[k], c]
-                            for c in range(3):
-                                eul_r[k, c] = src_r[k, c]
-                    elif trial == 2:
-                        if f == 0 or prev_ok == 0:
-                            break
-                        for k in range(nr):     # its free angles; the locked ones stay this frame's
-                            for c in range(3):
-                                eul_r[k, c] = prev_er[k, c] if r_free[k, c] else src_r[k, c]
-                            _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+                        eul_r[:] = src_r
                     score = _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
                                       r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol,
                                       rounds, g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
@@ -679,7 +704,7 @@ if HAVE_NUMBA:
                         best_l[:] = loc_l
                         best_r[:] = loc_r
                         best_er[:] = eul_r
-                    if score < 1e-3:
+                    if score < GRIP_CM + GRIP_LENGTH * GRIP_RAD:
                         break
                 loc_l[:] = best_l
                 loc_r[:] = best_r
