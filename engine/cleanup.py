@@ -417,6 +417,7 @@ except ImportError:             # pragma: no cover
     HAVE_NUMBA = False
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
+BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
 
 if HAVE_NUMBA:
     _drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py"))
@@ -547,7 +548,7 @@ if HAVE_NUMBA:
         grip is still out of reach, the bat is moved by what is missing and the
         solve runs again (``rounds`` times at most), then the right arm alone
         polishes the grip on the final left hand. Returns a score: the grip error
-        (cm, with 10 cm per radian) plus a little for how far the bat moved."""
+        (cm, with 10 cm per radian) plus BAT_COST per cm the bat moved."""
         nl = l_off.shape[0]
         handle = bat0
         for _ in range(rounds):
@@ -569,7 +570,7 @@ if HAVE_NUMBA:
                             tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
         bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
                                  r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
-        return vnorm(d) + GRIP_LENGTH * oe + 1e-3 * vnorm(vsub(bat, bat0))
+        return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0))
 
     @njit(cache=True)
     def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
