@@ -1,18 +1,27 @@
 """Clean-up of synthesised animations (dissertation 3.3).
 
-Two independent fixes, each vectorised over frames:
+Two independent fixes, both compiled (numba, one call per clip; a whole
+70-frame clean-up takes a few ms):
 
 * the right hand is put back on the bat handle: its position and orientation
-  relative to the left hand are taken from the source shot and reached by a
-  CCD solve of the right-arm chain (RightShoulder .. RightHand), DOFs and
-  limits respected, then the hand is turned to the source's relative
-  orientation (within its limits);
+  relative to the left hand are taken from the source shot (as
+  engine.adapt does) and reached with the adaptation's solvers: the right arm
+  alone first (from the previous frame's answer, so the arm does not jump
+  between poses that all hold the grip; else CCD for the wrist, the joints
+  that only turn the hand, damped Newton on both); where the left hand is out
+  of the right arm's reach, both arms together (``adapt.both_arms_solve``:
+  the torso Spine..Spine2 leans and the left arm gives while the bat holds),
+  and where even that cannot reach, the bat is moved by what is still missing;
 * planted feet stay planted: where the source's foot is planted (slow and
-  low), two-bone leg IK (hip swing + knee hinge) brings the ankle to the
-  source's ankle position and the foot to its orientation, with a short blend
-  at the plant's ends so nothing pops.
+  low), the leg chain (hip, knee) is solved by CCD so the ankle reaches the
+  source's ankle position, and the foot is turned to its orientation, with a
+  short blend at the plant's ends so nothing pops.
 
-Each returns the remaining error so the caller can show it.
+Both keep locked DOFs and the rig's limits (measured as
+engine.ccd.limit_violation does), widened only to take in a pose the new
+motion already put outside them, so no joint ends further out than it was.
+Each returns the remaining error so the caller can show it. Without numba a
+minimal numpy version of each is used (right arm only; closed-form legs).
 """
 from __future__ import annotations
 
@@ -418,6 +427,7 @@ except ImportError:             # pragma: no cover
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
+WARM_ITER = 80                  # Newton steps from the previous frame's right arm
 
 if HAVE_NUMBA:
     _drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py"))
@@ -655,7 +665,7 @@ if HAVE_NUMBA:
             if prev_ok:
                 _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
                 pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                                    tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+                                    tol, ori_tol, WARM_ITER, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
             if pe > GRIP_CM or oe > GRIP_RAD:
                 for k in range(nr):
                     for c in range(4):
