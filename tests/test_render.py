@@ -265,3 +265,37 @@ def test_antialias_toggle_softens_edges_only(renderer, rig):
     diff = changed(off, on, tol=6)
     assert 0.002 < diff.mean() < 0.15
     assert np.abs(off.mean((0, 1)) - on.mean((0, 1))).max() < 3.0
+
+
+def test_compositor_caches_only_repeated_scenes(renderer):
+    """At scale 1 a changing scene is drawn straight into the frame (no cache copy); a scene
+    drawn twice in a row is kept, and from then on restored without drawing."""
+    from app.compose import Compositor
+    ctx = renderer.ctx
+    with ctx:
+        comp = Compositor(ctx)
+        comp.resize((64, 48), (0, 0, 64, 48), (64, 48), 1.0)
+        drawn = []
+
+        def draw(color):
+            def render(fbo):
+                fbo.use()
+                fbo.clear(*color, 1.0)
+                drawn.append(color)
+                return True
+            return render
+
+        def pixel():
+            return np.frombuffer(comp.frame.read(components=3), np.uint8)[:3].tolist()
+
+        red, green = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
+        for key, color in (("a", red), ("b", green), ("b", green)):
+            comp.draw_scene(key, draw(color))
+        assert len(drawn) == 3 and comp.scene_key == "b"
+        comp.frame.use()
+        comp.frame.clear(0.0, 0.0, 1.0, 1.0)      # the UI drew over the frame
+        comp.draw_scene("b", draw(green))
+        assert len(drawn) == 3 and pixel() == [0, 255, 0]
+        comp.draw_scene("a", draw(red))
+        assert len(drawn) == 4 and pixel() == [255, 0, 0] and comp.scene_key == "b"
+        comp.release()
