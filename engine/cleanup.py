@@ -427,6 +427,7 @@ except ImportError:             # pragma: no cover
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
+TURN_COST = 0.005               # ... and a degree of the bat turning
 WARM_ITER = 80                  # Newton steps from the previous frame's right arm
 
 if HAVE_NUMBA:
@@ -553,12 +554,16 @@ if HAVE_NUMBA:
     @njit(cache=True)
     def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
                   r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol, rounds,
-                  g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e):
+                  g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e, lh0, hold, gs_rot, gs_pos):
         """Both arms onto bat and grip from the given start (in place); where the
         grip is still out of reach, the bat is moved by what is missing and the
-        solve runs again (``rounds`` times at most), then the right arm alone
-        polishes the grip on the final left hand. Returns a score: the grip error
-        (cm, with 10 cm per radian) plus BAT_COST per cm the bat moved."""
+        solve runs again (``rounds`` times at most). With ``hold``, the torso keeps
+        that lean and the left arm below it puts the bat back to its place and
+        the left hand to its orientation ``lh0`` (the two-arm solve holds the bat
+        only by one point, so it may turn it). Then the right arm alone polishes
+        the grip on the final left hand. Returns a score: the grip error (cm, with
+        10 cm per radian) plus BAT_COST per cm the bat moved and TURN_COST per
+        degree it turned."""
         nl = l_off.shape[0]
         handle = bat0
         for _ in range(rounds):
@@ -571,6 +576,12 @@ if HAVE_NUMBA:
                 break
             handle = vadd(bat, d)
         chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
+        if hold:
+            a = rp + 1
+            grip_solve(_q_at(g_rot, rp), _v_at(g_pos, rp), l_off[a:], l_eoff, loc_l[a:], eul_l[a:], l_free[a:],
+                       lo_l[a:], hi_l[a:], handle, lh0, tol, ori_tol, 40, gs_rot, gs_pos, cols6, dofs, A6, x6, r6,
+                       bak_l, bak_e)
+            chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
         pr = _q_at(g_rot, rp)
         pp = _v_at(g_pos, rp)
         g_lh = _q_at(g_rot, nl - 1)
@@ -580,7 +591,8 @@ if HAVE_NUMBA:
                             tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
         bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
                                  r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
-        return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0))
+        turn = math.degrees(q_angle(_q_at(g_rot, nl - 1), lh0))
+        return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0)) + TURN_COST * turn
 
     @njit(cache=True)
     def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
@@ -624,6 +636,8 @@ if HAVE_NUMBA:
         prev_er = np.empty((nr, 3))
         ccd_r = np.empty((nr, 4))
         ccd_er = np.empty((nr, 3))
+        gs_rot = np.empty((nl, 4))
+        gs_pos = np.empty((nl, 3))
         prev_ok = 0
         for f in range(F):
             for k in range(nl):
@@ -648,6 +662,7 @@ if HAVE_NUMBA:
             rel_q = (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])
             bat0, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off, r_eoff,
                                       loc_r, gr_rot, gr_pos, rel_p, rel_q)
+            lh0 = _q_at(g_rot, nl - 1)      # the left hand (and so the bat) as the new motion turns it
             if vnorm(d) < tol and oe < ori_tol:
                 prev_er[:] = eul_r
                 prev_ok = 1
@@ -689,7 +704,8 @@ if HAVE_NUMBA:
                 best = 1e300
                 ccd_r[:] = loc_r
                 ccd_er[:] = eul_r
-                for trial in range(3):
+                for attempt in range(6):
+                    trial = attempt // 2
                     for k in range(nl):
                         for c in range(4):
                             loc_l[k, c] = start_l[k, c]
@@ -709,7 +725,8 @@ if HAVE_NUMBA:
                         eul_r[:] = src_r
                     score = _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
                                       r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol,
-                                      rounds, g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+                                      rounds, g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e,
+                                      lh0, attempt % 2 == 0, gs_rot, gs_pos)
                     if score < best:
                         best = score
                         best_l[:] = loc_l
