@@ -130,6 +130,16 @@ def _project_rect(points: np.ndarray, vp: np.ndarray) -> tuple | None:
     return None if np.any(hi <= lo) else (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
+def _pixel_box(rect, size, grow: int) -> tuple | None:
+    """Pixel box (x, y, w, h) of an NDC rectangle, ``grow`` pixels wider, inside ``size``."""
+    w, h = size
+    x0 = max(int(np.floor((rect[0] + 1) * 0.5 * w)) - grow, 0)
+    y0 = max(int(np.floor((rect[1] + 1) * 0.5 * h)) - grow, 0)
+    x1 = min(int(np.ceil((rect[2] + 1) * 0.5 * w)) + grow, w)
+    y1 = min(int(np.ceil((rect[3] + 1) * 0.5 * h)) + grow, h)
+    return (x0, y0, x1 - x0, y1 - y0) if x1 - x0 > 10 and y1 - y0 > 10 else None
+
+
 def _vao(ctx, prog, buffers, index_buffer=None):
     """Vertex array binding only the attributes the compiled program kept."""
     content = [entry for entry in buffers if all(name in prog for name in entry[2:])]
@@ -274,7 +284,8 @@ class SceneRenderer:
         self._joint_boxes = joint_boxes(self.body_mesh, rig.skeleton.num_joints)
         self._static = _Layer()     # sky, ground, stadium, wickets for one camera and size
         self._ghost = _Layer()      # the translucent ghost's nearest surface (colour + depth)
-        self._aa = _Layer()         # antialiased drawing target (MSAA, or the frame before FXAA)
+        self._aa = _Layer()         # FXAA source: copies of the frame round what moves
+        self._aa_pixels = None      # the staging buffer for those copies
         self.p_fxaa = program(ctx, "fxaa.vert", "fxaa.frag")
         self.fxaa_vao = ctx.vertex_array(self.p_fxaa, [])
         lo, hi = self.wickets_mesh.positions.min(0), self.wickets_mesh.positions.max(0)
@@ -441,10 +452,11 @@ class SceneRenderer:
 
     def render(self, view: SceneView, fbo=None) -> None:
         """Draw the scene into ``fbo`` (default: the screen), antialiased when ``fbo`` is
-        single-sampled and ``view.antialias`` (default on): the cached static layer is drawn
+        single-sampled and ``view.antialias`` is set: the cached static layer is drawn
         with 4x MSAA and resolved (once per camera), and the moving things (batsman, ghost,
-        ball, target) get an FXAA pass over their screen boxes only. A multisampled ``fbo``
-        is drawn into directly (``render_image``: MSAA over everything)."""
+        ball, target) get an FXAA pass over their screen boxes only (copied out of the frame
+        into a texture the pass reads). The screen, a target without depth, or a multisampled ``fbo``
+        one (``render_image``: MSAA over everything) is drawn into directly."""
         import moderngl
 
         ctx = self.ctx
@@ -453,21 +465,33 @@ class SceneRenderer:
         if not aa or target is ctx.screen or getattr(target, "depth_attachment", None) is None:
             return self._render(view, target, aa=False)
         size = tuple(view.size)
-        frame = self._aa.framebuffer(ctx, size, 0, textures=True)
-        self._aa.color.filter = (moderngl.LINEAR, moderngl.LINEAR)
-        self._render(view, frame, aa=True)
-        ctx.copy_framebuffer(target, frame)
-        rects = self._moving_rects(view, self._vp, size)
-        if not rects:
+        self._render(view, target, aa=True)
+        boxes = [_pixel_box(r, size, 6) for r in self._moving_rects(view, self._vp, size)]
+        boxes = [b for b in boxes if b is not None]
+        if not boxes:
             return
+        # copy just those boxes of the frame into a texture the FXAA pass reads (a full-frame
+        # copy or an offscreen frame would cost more than the filter itself)
+        self._aa.framebuffer(ctx, size, 0, textures=True)     # (re)sized with the frame
+        source = self._aa.color
+        source.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        for box in boxes:
+            nbytes = box[2] * box[3] * 4
+            if self._aa_pixels is None or self._aa_pixels.size < nbytes:
+                self._aa_pixels = ctx.buffer(reserve=max(nbytes, 1 << 20))
+            target.read_into(self._aa_pixels, viewport=box, components=4, alignment=1)
+            source.write(self._aa_pixels, viewport=box, alignment=1)
         target.use()
         ctx.viewport = (0, 0, *size)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-        self._aa.color.use(0)
+        source.use(0)
         set_uniform(self.p_fxaa, "u_color", 0)
         set_uniform(self.p_fxaa, "u_texel", (1.0 / size[0], 1.0 / size[1]))
-        for rect in rects:
-            set_uniform(self.p_fxaa, "u_rect", rect)
+        for x, y, w, h in boxes:
+            # the filter's taps reach 4 pixels: draw 5 pixels inside the copied box
+            set_uniform(self.p_fxaa, "u_rect", tuple(float(v) for v in (
+                2 * (x + 5) / size[0] - 1, 2 * (y + 5) / size[1] - 1,
+                2 * (x + w - 5) / size[0] - 1, 2 * (y + h - 5) / size[1] - 1)))
             self.fxaa_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
         ctx.enable(moderngl.DEPTH_TEST)
 
