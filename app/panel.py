@@ -156,6 +156,12 @@ def _overlay_section(settings: ViewerSettings) -> None:
         settings.render_scale = v
     if imgui.is_item_hovered():
         imgui.set_tooltip("3D view resolution relative to the window (lower it on a slow GPU)")
+    changed, v = imgui.checkbox("antialias the batsman", settings.antialias)
+    if changed:
+        settings.antialias = v
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("FXAA over the batsman, ball and target (about 3 ms a frame in software GL);"
+                          " the pitch and stadium are always multisampled")
     imgui.text("source pose")
     for mode in GHOST_MODES:
         imgui.same_line()

@@ -53,6 +53,7 @@ class ViewerSettings:
     loop: bool = True
     overlays: Overlays = field(default_factory=Overlays)
     render_scale: float = 1.0
+    antialias: bool = False           # FXAA over the moving things (~3 ms on llvmpipe); the static scene is always MSAA
     # capture requests, consumed by the loop
     screenshot_requested: bool = False
     export_requested: bool = False

@@ -33,6 +33,7 @@ def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCam
     view = SceneView(view=camera.view(), proj=camera.proj(w / max(h, 1)), size=(w, h),
                      skin_matrices=_skin(state.pose, state, skinning_matrices))
     view.show_pitch = o.pitch
+    view.antialias = bool(settings.antialias)
     view.target_position = np.asarray(settings.target, np.float32)
     view.target_normal = TARGET_NORMAL
     view.target_highlight = bool(state.hover_target or state.dragging_target)

@@ -20,6 +20,7 @@ SETTINGS = {
     "overlays.ghost": ["off", "mesh", "skeleton", "nonsense"],
     "overlays.flight": [True, False],
     "fix_right_hand": [True, False],
+    "antialias": [True, False],
 }
 
 
