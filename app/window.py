@@ -78,6 +78,10 @@ class Window:
     def __init__(self, size: tuple[int, int], title: str = "Hitpoint", visible: bool = True):
         import glfw
         self.glfw = glfw
+        if visible and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            # a window nobody can see would just run forever on a private Xvfb
+            raise DisplayError("no display to open a window on: run `hitpoint view --headless "
+                               "--screenshot out.png` for an image, or start a desktop session")
         ensure_display()
         if not glfw.init():
             raise DisplayError("glfw could not initialise (no usable display)")
