@@ -24,7 +24,7 @@ from numba import njit
 
 from . import quat
 from .ccd import (KIND_MULTI, KIND_NONE, ChainArrays, _q_at, _q_put, _v_at, _v_put, ccd_frame,
-                  chain_arrays, chain_fk, cross, clamp_angle, from_euler_zyx, hinge_axis, limit_euler,
+                  chain_arrays, chain_fk, chain_scratch, cross, clamp_angle, from_euler_zyx, hinge_axis, limit_euler,
                   pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub)
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations
@@ -554,12 +554,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
     nl = lj.shape[0]
     nr = rj.shape[0]
     nmax = max(nl, nr)
-    g_rot = np.empty((nmax, 4))
-    g_pos = np.empty((nmax, 3))
-    cols = np.empty((3 * nmax, 3))
-    dofs = np.empty((3 * nmax, 2), np.int64)
-    bak_l = np.empty((nmax, 4))
-    bak_e = np.empty((nmax, 3))
+    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(nmax)
     loc_l = np.empty((nl, 4))
     eul_l = np.empty((nl, 3))
     src_l = np.empty((nl, 3))

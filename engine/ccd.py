@@ -492,16 +492,19 @@ def ccd_frame(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind,
 
 
 @njit(cache=True)
+def chain_scratch(n):
+    """Work buffers for solving one chain of up to ``n`` joints, allocated once
+    per batch: (g_rot (n,4), g_pos (n,3), cols (3n,3), dofs (3n,2), bak_l (n,4), bak_e (n,3))."""
+    return (np.empty((n, 4)), np.empty((n, 3)), np.empty((3 * n, 3)), np.empty((3 * n, 2), np.int64),
+            np.empty((n, 4)), np.empty((n, 3)))
+
+
+@njit(cache=True)
 def ccd_batch(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
               polish_weight, handles, tol, max_iter, out_err, out_iter):
     """Every frame f of local (F,n,4) / euler (F,n,3) solved in place."""
     n = offsets.shape[0]
-    g_rot = np.empty((n, 4))
-    g_pos = np.empty((n, 3))
-    cols = np.empty((3 * n, 3))
-    dofs = np.empty((3 * n, 2), np.int64)
-    bak_l = np.empty((n, 4))
-    bak_e = np.empty((n, 3))
+    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
     for f in range(local.shape[0]):
         pr = (prot[f, 0], prot[f, 1], prot[f, 2], prot[f, 3])
         pp = (ppos[f, 0], ppos[f, 1], ppos[f, 2])

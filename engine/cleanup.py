@@ -419,7 +419,7 @@ try:
     from .adapt import GRIP_CM, GRIP_RAD, ORIENT_TOL, _drop_stale_numba_cache, \
         both_arms_solve, grip_solve, orient_finish
     from .ccd import _q_at, _q_put, _v_at, ccd_frame, clamp_angle, from_euler_zyx, pick_branch, qconj, \
-        to_euler_zyx, chain_arrays, chain_fk, limit_euler, q_angle, qmul, qrot, \
+        to_euler_zyx, chain_arrays, chain_fk, chain_scratch, limit_euler, q_angle, qmul, qrot, \
         vadd, vnorm, vsub
     HAVE_NUMBA = True
 except ImportError:             # pragma: no cover
@@ -460,12 +460,7 @@ if HAVE_NUMBA:
         ``target_rot (F,4)``; limits widened only to the start pose, locked
         columns kept. In place on ``local (F,J,4)`` (``euler`` radians, limit branch)."""
         n = lj.shape[0]
-        g_rot = np.empty((n, 4))
-        g_pos = np.empty((n, 3))
-        cols = np.empty((3 * n, 3))
-        dofs = np.empty((3 * n, 2), np.int64)
-        bak_l = np.empty((n, 4))
-        bak_e = np.empty((n, 3))
+        g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
         loc = np.empty((n, 4))
         eul = np.empty((n, 3))
         src = np.empty((n, 3))

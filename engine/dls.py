@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .ccd import (ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, chain_fk,
+from .ccd import (ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, chain_fk, chain_scratch,
                   jacobian_step, limit_euler, vnorm, vsub)
 
 DAMPING = 1.0           # cm
@@ -64,12 +64,7 @@ def dls_frame(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, 
 def dls_batch(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, damping,
               handles, tol, max_iter, out_err, out_iter):
     n = offsets.shape[0]
-    g_rot = np.empty((n, 4))
-    g_pos = np.empty((n, 3))
-    cols = np.empty((3 * n, 3))
-    dofs = np.empty((3 * n, 2), np.int64)
-    bak_l = np.empty((n, 4))
-    bak_e = np.empty((n, 3))
+    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
     for f in range(local.shape[0]):
         pr = (prot[f, 0], prot[f, 1], prot[f, 2], prot[f, 3])
         pp = (ppos[f, 0], ppos[f, 1], ppos[f, 2])
