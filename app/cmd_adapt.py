@@ -23,8 +23,8 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     from engine.library import find_shot, load_library
     from engine.rig import default_rig
 
-    if out is not None and out.suffix.lower() not in (".bvh", ".csv"):
-        raise UserError(f"--out: unknown extension {out.suffix or '(none)'!r} (use .bvh or .csv)")
+    if out is not None:
+        check_out(out)
     settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver)
     check_settings(settings)
     rig = default_rig()
@@ -66,11 +66,29 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     }
 
 
+OUT_EXTENSIONS = (".bvh", ".csv", ".glb", ".gltf")
+
+
+def check_out(out: Path) -> None:
+    """UserError before any solving for an --out the command cannot write."""
+    if out.suffix.lower() not in OUT_EXTENSIONS:
+        raise UserError(f"--out: unknown extension {out.suffix or '(none)'!r} (use {', '.join(OUT_EXTENSIONS)})")
+    folder = out.parent if str(out.parent) else Path(".")
+    if not folder.is_dir():
+        raise UserError(f"--out: folder {folder} does not exist")
+
+
 def _write(out: Path, rig, shot, a) -> None:
     from engine import bvh
     from engine.skeleton import Clip
-    if out.suffix.lower() == ".bvh":
-        bvh.write(out, shot.skeleton, Clip(a.root_positions, a.local_rotations, shot.clip.fps))
+    suffix = out.suffix.lower()
+    clip = Clip(a.root_positions, a.local_rotations, shot.clip.fps)
+    if suffix == ".bvh":
+        bvh.write(out, shot.skeleton, clip)
+        return
+    if suffix in (".glb", ".gltf"):
+        from engine.gltf_export import write_gltf
+        write_gltf(out, shot.skeleton, clip, name=f"{shot.name}_adapted")
         return
     from engine.ccd import limit_euler
     e = limit_euler(a.local_rotations, rig.limits)
@@ -145,7 +163,9 @@ def register(cli: typer.Typer) -> None:
           --falloff CM        importance-blend falloff distance (default 90)
           --wrist-dof 0|2     left wrist locked (0, default) or 2 DOF
           --solver ccd|dls    IK solver (default ccd)
-          --out FILE          write the adapted shot, .bvh or .csv (atomic)
+          --out FILE          write the adapted shot (atomic): .bvh, .csv, or .glb/.gltf
+                              (skinned batsman + animation; data in cm under a
+                              0.01 scale node, so it imports in metres)
         JSON keys: shot, hit_frame, source_hit_point, desired_hit_point,
         bat_error_cm, blend (per frame), grip_error_cm, grip_error_deg, solve_ms, ...
         """
