@@ -1,8 +1,15 @@
 """Capture: screenshots of the whole window (F12) and an export of the adapted
-shot as a PNG sequence (or an mp4 when imageio-ffmpeg is available)."""
+shot: one folder per export holding the rendered frames (PNG sequence and an
+mp4 through imageio-ffmpeg) and the motion itself as BVH and glTF, so the user
+can take what they made into their own tools. The folder is written under a
+temporary name beside the target and renamed when complete: a failed export
+leaves nothing half-written."""
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
+import tempfile
 import time
 from pathlib import Path
 
@@ -31,8 +38,19 @@ def default_screenshot_path() -> Path:
     return Path.cwd() / time.strftime("hitpoint_%Y%m%d_%H%M%S.png")
 
 
+# What an export can write; the default is all but the JSON flavour of glTF.
+EXPORT_FORMATS = ("png", "mp4", "bvh", "glb", "gltf")
+DEFAULT_EXPORT_FORMATS = ("png", "mp4", "bvh", "glb")
+
+
 def default_export_dir() -> Path:
-    return Path.cwd() / time.strftime("hitpoint_export_%Y%m%d_%H%M%S")
+    """A new folder name in the working directory (never an existing one)."""
+    base = Path.cwd() / time.strftime("hitpoint_export_%Y%m%d_%H%M%S")
+    out, n = base, 1
+    while out.exists():
+        n += 1
+        out = base.with_name(f"{base.name}_{n}")
+    return out
 
 
 def have_ffmpeg() -> bool:
@@ -43,23 +61,93 @@ def have_ffmpeg() -> bool:
     return True
 
 
-def export_frames(images, out_dir: str | Path, fps: float, video: bool | None = None) -> Path:
-    """Write an iterable of ``(h,w,3)`` images as ``frame_0000.png...`` in
-    ``out_dir`` (plus ``shot.mp4`` if ffmpeg is available and ``video`` is not
-    False). Returns the folder."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    video = have_ffmpeg() if video is None else video
-    frames = []
-    for i, img in enumerate(images):
-        write_png(out_dir / f"frame_{i:04d}.png", img)
-        if video:
-            frames.append(img)
-    if video and frames:
+def check_formats(formats) -> tuple[str, ...]:
+    """Export formats as a tuple of known names (ValueError names the bad one)."""
+    if formats is None:   # the default skips the video rather than failing without ffmpeg
+        return tuple(f for f in DEFAULT_EXPORT_FORMATS if f != "mp4" or have_ffmpeg())
+    if isinstance(formats, str):
+        formats = [formats]
+    names = tuple(dict.fromkeys(str(f).lower().lstrip(".") for f in formats))
+    bad = [f for f in names if f not in EXPORT_FORMATS]
+    if bad or not names:
+        raise ValueError(f"unknown export format {bad[0] if bad else '(none)'!r} "
+                         f"(known: {', '.join(EXPORT_FORMATS)})")
+    return names
+
+
+@contextlib.contextmanager
+def atomic_folder(path: str | os.PathLike):
+    """Yield a temporary folder beside ``path``; on success it is renamed to
+    ``path`` (which must not exist, or be empty), on error it is removed."""
+    target = Path(path)
+    if target.exists() and (not target.is_dir() or any(target.iterdir())):
+        raise FileExistsError(f"{target} already exists")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
+    try:
+        yield tmp
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o777 & ~mask)    # mkdtemp makes it private
+        os.replace(tmp, target)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def write_frames(images, out_dir: Path, stem: str, fps: float, png: bool = True, mp4: bool = True) -> int:
+    """Stream ``(h,w,3)`` uint8 images to ``frame_0000.png...`` and/or
+    ``{stem}.mp4`` (H.264, yuv420p: plays everywhere) in ``out_dir``.
+    Returns the number of frames."""
+    writer = None
+    if mp4:
+        if not have_ffmpeg():
+            raise RuntimeError("mp4 export needs imageio-ffmpeg (pip install imageio-ffmpeg)")
         import imageio.v2 as iio2
-        tmp = out_dir / ".shot.mp4"
-        with iio2.get_writer(tmp, fps=fps, codec="libx264", macro_block_size=2) as writer:
-            for img in frames:
+        writer = iio2.get_writer(out_dir / f"{stem}.mp4", fps=fps, codec="libx264", macro_block_size=2,
+                                 ffmpeg_log_level="error")
+    count = 0
+    try:
+        for count, img in enumerate(images, 1):
+            if png:
+                write_png(out_dir / f"frame_{count - 1:04d}.png", img)
+            if writer is not None:
                 writer.append_data(img)
-        os.replace(tmp, out_dir / "shot.mp4")
-    return out_dir
+    finally:
+        if writer is not None:
+            writer.close()
+    return count
+
+
+def write_motion(out_dir: Path, stem: str, skeleton, clip, formats) -> list[Path]:
+    """The clip as ``{stem}.bvh`` / ``.glb`` / ``.gltf`` in ``out_dir`` (those asked for)."""
+    from engine import bvh
+    from engine.gltf_export import write_gltf
+    paths = []
+    if "bvh" in formats:
+        paths.append(out_dir / f"{stem}.bvh")
+        bvh.write(paths[-1], skeleton, clip)
+    for ext in ("glb", "gltf"):
+        if ext in formats:
+            paths.append(write_gltf(out_dir / f"{stem}.{ext}", skeleton, clip, name=stem))
+    return paths
+
+
+def export_shot(out_dir, images, fps: float, skeleton, clip, stem: str = "shot", formats=None) -> Path:
+    """One export folder ``out_dir``: motion files first (quick, and a bad clip
+    fails before any rendering), then the frames. Atomic (see ``atomic_folder``)."""
+    formats = check_formats(formats)
+    with atomic_folder(out_dir) as tmp:
+        write_motion(tmp, stem, skeleton, clip, formats)
+        if "png" in formats or "mp4" in formats:
+            write_frames(images, tmp, stem, fps, png="png" in formats, mp4="mp4" in formats)
+    return Path(out_dir)
+
+
+def describe_export(out_dir: Path) -> str:
+    """One line for the panel: where, and what (frames counted, other files named)."""
+    files = sorted(p.name for p in Path(out_dir).iterdir())
+    frames = sum(1 for f in files if f.startswith("frame_") and f.endswith(".png"))
+    others = [f for f in files if not (f.startswith("frame_") and f.endswith(".png"))]
+    parts = ([f"{frames} PNG frames"] if frames else []) + others
+    return f"{out_dir}: {', '.join(parts) if parts else 'nothing'}"

@@ -260,15 +260,30 @@ def _capture_section(settings: ViewerSettings, extras: dict) -> None:
     if imgui.button("Screenshot (F12)"):
         settings.screenshot_requested = True
     imgui.same_line()
-    if imgui.button("Export shot frames"):
+    if imgui.button("Export shot"):
         settings.export_requested = True
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("A new folder in the working directory: the adapted shot as\n"
+                          "mp4 + PNG frames (viewport size), BVH and glTF (.glb, metres)")
     if imgui.button("Reload shot library"):
         settings.reload_requested = True
+    _last_capture(extras)
+
+
+def _last_capture(extras: dict) -> None:
+    """Where the last screenshot or export went, or why the export failed."""
+    export = extras.get("last_export")          # (ok, one line) from App._captures
     last = extras.get("last_capture")
-    if last:
-        imgui.push_text_wrap_pos(0.0)
+    if not export and not last:
+        return
+    imgui.push_text_wrap_pos(0.0)
+    if export and export[0] and last and export[1].startswith(last):
+        imgui.text_colored(DIM, f"exported {export[1]}")
+    elif last:
         imgui.text_colored(DIM, f"wrote {last}")
-        imgui.pop_text_wrap_pos()
+    if export and not export[0]:
+        imgui.text_colored(ERROR_COLOR, export[1])
+    imgui.pop_text_wrap_pos()
 
 
 def _messages(state: AppState) -> None:

@@ -15,7 +15,8 @@ frames per second) and a ``"type"``:
 - ``set {key, value}`` (e.g. ``falloff``, ``solver``, ``overlays.flight``),
   ``scrub {frame}``, ``key {key}`` (``space``, ``left``, ``right``, ``h``,
   ``s``, ``[``, ``]``, ``f12``, ``r``), ``pcpad_drag {from: [s1,s2], to: [s1,s2],
-  frames}`` (scores on the PC pad), ``screenshot {path}``, ``export {dir}``.
+  frames}`` (scores on the PC pad), ``screenshot {path}``, ``export {dir, formats?}`` (a new folder; formats from
+  ``png mp4 bvh glb gltf``, default all but ``gltf``).
 """
 from __future__ import annotations
 
@@ -195,8 +196,15 @@ class ScriptPlayer:
         self._at(f, lambda app: app.request_screenshot(path))
 
     def _ev_export(self, f, e):
+        from app.capture import check_formats
         out = str(e["dir"])
-        self._at(f, lambda app: app.request_export(out))
+        formats = check_formats(e["formats"]) if "formats" in e else None   # bad names fail at load
+
+        def export(app):
+            if formats is not None:   # picked up with the folder by App._captures
+                app.extras.setdefault("export_formats", {})[str(Path(out))] = formats
+            app.request_export(out)
+        self._at(f, export)
 
 
 def _num(v) -> float:

@@ -259,14 +259,27 @@ class App:
                 self.state.report(f"screenshot: {type(e).__name__}: {e}")
         while self._pending_exports:
             out = self._pending_exports.pop(0)
+            # formats a script asked for with this folder (app.script._ev_export)
+            formats = self.extras.get("export_formats", {}).pop(str(out), None)
             try:
-                self.extras["last_capture"] = str(self.export_shot(out))
+                folder = self.export_shot(out, formats)
             except Exception as e:
                 self.state.report(f"export: {type(e).__name__}: {e}")
+                self.extras["last_export"] = (False, f"export to {out} failed: {e}")
+            else:
+                self.extras["last_capture"] = str(folder)
+                self.extras["last_export"] = (True, capture.describe_export(folder))
 
-    def export_shot(self, out_dir) -> Path:
-        """Render every frame of the adapted shot (viewport size) to ``out_dir``."""
+    def export_shot(self, out_dir, formats=None) -> Path:
+        """Export the adapted shot (the source shot when nothing is adapted) into
+        the new folder ``out_dir``: every frame rendered at the viewport's size
+        (PNG sequence, mp4) and the motion as BVH / glTF (``capture.export_shot``)."""
+        from engine.skeleton import Clip
         state, settings = self.state, self.settings
+        shot, adapted = state.shot, state.adaptation
+        if shot is None:
+            raise ValueError("no shot loaded")
+        clip = shot.clip if adapted is None else Clip(adapted.root_positions, adapted.local_rotations, shot.clip.fps)
         keep = settings.frame
 
         _, _, w, h = self.compositor.viewport_px
@@ -283,7 +296,8 @@ class App:
                 pose_at(state, keep)
                 ball_at(state, keep)
         try:
-            return capture.export_frames(images(), out_dir, state.fps)
+            stem = shot.name if adapted is None else f"{shot.name}_adapted"
+            return capture.export_shot(out_dir, images(), state.fps, shot.skeleton, clip, stem, formats)
         finally:
             for a in (*fbo.color_attachments, fbo.depth_attachment):
                 a.release()
