@@ -44,6 +44,7 @@ class Compositor:
         self.scene_key: str | None = None                 # what cache/scaled holds
         self.drawn_key: str | None = None                 # direct: last scene drawn, uncached
         self.viewport_px = (0, 0, 1, 1)                   # GL pixels, bottom-left origin
+        self.frame_generation = 0                         # bumped when ``frame`` is recreated
         prog = ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_BLIT_FS)
         quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
         self._blit = ctx.vertex_array(prog, [(quad, "2f", "in_pos")])
@@ -57,6 +58,7 @@ class Compositor:
                                               self.ctx.depth_renderbuffer((fw, fh)))
             self.frame.use()
             self.frame.clear(*BACKGROUND)
+            self.frame_generation += 1
             self.invalidate()
         k = fw / max(window_size[0], 1)        # framebuffer pixels per window pixel (HiDPI)
         x, y, w, h = (round(v * k) for v in viewport)

@@ -13,6 +13,8 @@ import moderngl
 import numpy as np
 from imgui_bundle import imgui
 
+from app.ui_damage import DamageTracker, UiGeometry
+
 _VERTEX = """
 #version 330
 uniform mat4 proj;
@@ -40,6 +42,14 @@ class ImguiRenderer:
         self.ibo = ctx.buffer(reserve=1 << 16, dynamic=True)
         self.vao = self._make_vao()
         self.textures: dict[int, moderngl.Texture] = {}
+        self._atlas_ids: set[int] = set()      # textures ImGui made (app textures keep their filter)
+        self.damage = DamageTracker()
+        # At 1:1 scale glyphs sit on whole pixels, so nearest sampling gives the
+        # same text at a fraction of llvmpipe's cost for bilinear; lines are
+        # antialiased with geometry, which does not need the filtered texture.
+        self._filter = (moderngl.NEAREST, moderngl.NEAREST)
+        fonts = imgui.get_io().fonts
+        fonts.flags |= imgui.ImFontAtlasFlags_.no_baked_lines
         io = imgui.get_io()
         io.backend_flags |= imgui.BackendFlags_.renderer_has_textures
         max_size = ctx.info["GL_MAX_TEXTURE_SIZE"]
@@ -54,10 +64,13 @@ class ImguiRenderer:
                                      index_buffer=self.ibo, index_element_size=4)
 
     # -- textures ---------------------------------------------------------
-    def _update_textures(self) -> None:
+    def _update_textures(self) -> bool:
+        """Create, update and destroy textures as ImGui asks; True if any changed."""
+        changed = False
         for tex in imgui.get_platform_io().textures:
             if tex.status == imgui.ImTextureStatus.ok:
                 continue
+            changed = True
             if tex.status in (imgui.ImTextureStatus.want_create, imgui.ImTextureStatus.want_updates):
                 self._upload(tex)
             elif tex.status == imgui.ImTextureStatus.want_destroy:
@@ -66,6 +79,7 @@ class ImguiRenderer:
                     gl_tex.release()
                 tex.set_tex_id(0)
                 tex.status = imgui.ImTextureStatus.destroyed
+        return changed
 
     def _upload(self, tex) -> None:
         pixels = np.asarray(tex.get_pixels_array(), dtype=np.uint8)
@@ -74,9 +88,10 @@ class ImguiRenderer:
             if gl_tex is not None:
                 self.textures.pop(gl_tex.glo).release()
             gl_tex = self.ctx.texture((tex.width, tex.height), 4, pixels.tobytes())
-            gl_tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            gl_tex.filter = self._filter
             gl_tex.repeat_x = gl_tex.repeat_y = False
             self.textures[gl_tex.glo] = gl_tex
+            self._atlas_ids.add(gl_tex.glo)
             tex.set_tex_id(gl_tex.glo)
         else:  # atlas grew glyphs: re-upload it whole (small, and rare)
             gl_tex.write(pixels.tobytes())
@@ -88,17 +103,31 @@ class ImguiRenderer:
         return texture.glo
 
     # -- drawing ----------------------------------------------------------
-    def render(self, draw_data, fbo: moderngl.Framebuffer) -> None:
-        self._update_textures()
+    def invalidate(self) -> None:
+        """Redraw the whole UI next frame (the target's pixels were overwritten)."""
+        self.damage.invalidate()
+
+    def render(self, draw_data, fbo: moderngl.Framebuffer, keep: tuple | None = None) -> None:
+        """Draw ``draw_data`` into ``fbo``. ``keep`` (x, y, w, h, display pixels) is
+        a rectangle of ``fbo`` that nothing but the UI draws into: there only the
+        bands that changed since the last call are redrawn (``app.ui_damage``)."""
+        if self._update_textures():
+            self.damage.invalidate()
         width, height = draw_data.display_size
         if width <= 0 or height <= 0:
             return
-        lists = [c for c in draw_data.cmd_lists if c.vtx_buffer.size() and c.idx_buffer.size()]
-        if not lists:
+        self._set_filter(tuple(draw_data.framebuffer_scale))
+        geo = self._geometry(draw_data)
+        if geo is None:
             return
-        vertices, indices, firsts = self._gather(lists)
-        self._write(self.vbo, vertices)
-        self._write(self.ibo, indices)
+        ox, oy = draw_data.display_pos
+        display = (ox, oy, ox + width, oy + height)
+        box = None if keep is None else (keep[0], keep[1], keep[0] + keep[2], keep[1] + keep[3])
+        indices, plan = self.damage.plan(geo, display, box, (fbo.glo, fbo.size, tuple(draw_data.framebuffer_scale)))
+        if not plan:
+            return
+        self._write(self.vbo, geo.words.tobytes())
+        self._write(self.ibo, indices.tobytes())
         ctx = self.ctx
         fbo.use()
         ctx.viewport = (0, 0, fbo.width, fbo.height)
@@ -106,48 +135,63 @@ class ImguiRenderer:
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
         ctx.blend_equation = moderngl.FUNC_ADD
         sx, sy = fbo.width / width, fbo.height / height
-        ox, oy = draw_data.display_pos
         proj = np.array([[2 / width, 0, 0, 0], [0, -2 / height, 0, 0], [0, 0, -1, 0],
                          [-(2 * ox + width) / width, (2 * oy + height) / height, 0, 1]], "f4")
         self.prog["proj"].write(proj.tobytes())
         try:
-            for cmd_list, first in zip(lists, firsts):
-                for cmd in cmd_list.cmd_buffer:
-                    self._draw(cmd, first, fbo.height, sx, sy, ox, oy)
+            for batch in plan:
+                x0, y0, x1, y1 = batch.rect
+                x0, x1 = round((x0 - ox) * sx), round((x1 - ox) * sx)
+                y0, y1 = round((y0 - oy) * sy), round((y1 - oy) * sy)
+                if x1 <= x0 or y1 <= y0:
+                    continue
+                self.ctx.scissor = (x0, fbo.height - y1, x1 - x0, y1 - y0)
+                tex = self.textures.get(batch.texture)
+                if tex is not None:
+                    tex.use(0)
+                self.vao.render(moderngl.TRIANGLES, vertices=batch.count, first=batch.first)
         finally:
             ctx.scissor = None
             ctx.disable(moderngl.BLEND)
 
-    @staticmethod
-    def _gather(lists):
-        """One vertex array and one uint32 index array for all lists (indices
-        rebased), and each list's first index in the latter."""
-        vtx, idx, firsts = [], [], []
-        base = start = 0
-        itype = np.uint16 if imgui.INDEX_SIZE == 2 else np.uint32
-        for c in lists:
-            nv, ni = c.vtx_buffer.size(), c.idx_buffer.size()
-            vtx.append(bytes((ctypes.c_char * (nv * imgui.VERTEX_SIZE)).from_address(c.vtx_buffer.data_address())))
-            raw = (ctypes.c_char * (ni * imgui.INDEX_SIZE)).from_address(c.idx_buffer.data_address())
-            idx.append(np.frombuffer(raw, itype).astype(np.uint32) + base)
-            firsts.append(start)
-            base, start = base + nv, start + ni
-        return b"".join(vtx), np.concatenate(idx).tobytes(), firsts
+    def _set_filter(self, scale: tuple) -> None:
+        """Nearest sampling at 1:1, bilinear when the UI is scaled (HiDPI)."""
+        mode = moderngl.NEAREST if scale == (1.0, 1.0) else moderngl.LINEAR
+        if self._filter != (mode, mode):
+            self._filter = (mode, mode)
+            for tex in self._atlas_ids & self.textures.keys():
+                self.textures[tex].filter = self._filter
+            self.damage.invalidate()
 
-    def _draw(self, cmd, first: int, fb_height: int, sx: float, sy: float, ox: float, oy: float) -> None:
-        if cmd.elem_count == 0:
-            return
-        x0, y0, x1, y1 = cmd.clip_rect
-        x0, x1 = (x0 - ox) * sx, (x1 - ox) * sx
-        y0, y1 = (y0 - oy) * sy, (y1 - oy) * sy
-        if x1 <= x0 or y1 <= y0:
-            return
-        self.ctx.scissor = (int(x0), int(fb_height - y1), int(x1 - x0), int(y1 - y0))
-        tex = self.textures.get(int(cmd.tex_ref.get_tex_id()))
-        if tex is not None:
-            tex.use(0)
-        # Without RendererHasVtxOffset ImGui splits big lists, so vtx_offset is always 0.
-        self.vao.render(moderngl.TRIANGLES, vertices=cmd.elem_count, first=first + cmd.idx_offset)
+    @staticmethod
+    def _geometry(draw_data) -> UiGeometry | None:
+        """All draw lists flattened into one ``UiGeometry`` (indices rebased), or None."""
+        words, tris, tri_cmd, clips, textures = [], [], [], [], []
+        base = 0
+        itype = np.uint16 if imgui.INDEX_SIZE == 2 else np.uint32
+        for c in draw_data.cmd_lists:
+            nv, ni = c.vtx_buffer.size(), c.idx_buffer.size()
+            if not nv or not ni:
+                continue
+            raw = (ctypes.c_char * (nv * imgui.VERTEX_SIZE)).from_address(c.vtx_buffer.data_address())
+            words.append(np.frombuffer(bytes(raw), np.uint32).reshape(nv, imgui.VERTEX_SIZE // 4))
+            idx = np.frombuffer((ctypes.c_char * (ni * imgui.INDEX_SIZE)).from_address(
+                c.idx_buffer.data_address()), itype).astype(np.uint32) + base
+            for cmd in c.cmd_buffer:
+                # Without RendererHasVtxOffset ImGui splits big lists, so vtx_offset is always 0.
+                if cmd.elem_count == 0:
+                    continue
+                tris.append(idx[cmd.idx_offset:cmd.idx_offset + cmd.elem_count])
+                tri_cmd.append(np.full(cmd.elem_count // 3, len(clips)))
+                clips.append(tuple(cmd.clip_rect))
+                textures.append(int(cmd.tex_ref.get_tex_id()))
+            base += nv
+        if not tris:
+            return None
+        all_words = np.concatenate(words)
+        return UiGeometry(words=all_words, positions=np.ascontiguousarray(all_words[:, :2]).view(np.float32),
+                          indices=np.concatenate(tris).reshape(-1, 3), tri_cmd=np.concatenate(tri_cmd),
+                          clips=np.asarray(clips, np.float32), textures=np.asarray(textures, np.int64))
 
     @staticmethod
     def _write(buf: moderngl.Buffer, data: bytes) -> None:

@@ -67,6 +67,7 @@ class App:
         self.compositor = Compositor(self.ctx)
         self._opaque_windows()
         self.frame_index = 0
+        self._ui_generation = -1
         self._last_time = time.perf_counter()
         self._frame_stamps: deque = deque()
         self._pending_screenshots: list[Path] = []
@@ -153,7 +154,10 @@ class App:
         self.ctx.finish()  # honest render timing (llvmpipe otherwise works at the next sync)
         t_render = time.perf_counter()
 
-        self.gui.render(imgui.get_draw_data(), comp.frame)
+        if comp.frame_generation != self._ui_generation:     # a new frame: nothing of the UI in it
+            self.gui.invalidate()
+            self._ui_generation = comp.frame_generation
+        self.gui.render(imgui.get_draw_data(), comp.frame, keep=rects["panel"])
         self._captures()
         comp.present(self.window)
         self.ctx.finish()
