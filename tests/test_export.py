@@ -1,0 +1,378 @@
+"""Exporting what the user made: glTF (engine.gltf_export) read back with
+pygltflib and animated by an independent sampler + FK over the file's node
+tree, ``hitpoint adapt --out .glb/.gltf``, and the viewer's export folder
+(mp4, BVH, GLB; atomic)."""
+import json
+
+import numpy as np
+import pygltflib
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+from app.mesh import _accessor, load_glb
+from engine import bvh, quat
+from engine.gltf_export import METRES_PER_CM, write_gltf
+from engine.library import conform_to_rig, load_library
+from engine.skeleton import Clip, bind_positions, clip_fk, skinning_matrices
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+TOL_M = 1e-3 * METRES_PER_CM        # 1e-3 cm, in the file's metres
+
+
+# ----------------------------------------------------------------- reading a glTF back
+class GltfFile:
+    """A written .glb/.gltf: accessors as arrays, the animation sampled, FK over nodes."""
+
+    def __init__(self, path):
+        self.gltf = pygltflib.GLTF2().load(str(path))
+        if self.gltf.buffers[0].uri:          # .gltf: buffer embedded as a data URI
+            self.gltf.convert_buffers(pygltflib.BufferFormat.BINARYBLOB)
+        self.blob = self.gltf.binary_blob()
+        n = len(self.gltf.nodes)
+        self.parent = np.full(n, -1)
+        for i, node in enumerate(self.gltf.nodes):
+            for c in node.children or ():
+                self.parent[c] = i
+
+    def array(self, index):
+        return _accessor(self.gltf, self.blob, index)
+
+    def rest_trs(self):
+        """Per node (n,3) translation, (n,4) (w,x,y,z) rotation, (n,3) scale."""
+        nodes = self.gltf.nodes
+        t = np.array([node.translation or [0, 0, 0] for node in nodes], float)
+        r = np.array([node.rotation or [0, 0, 0, 1] for node in nodes], float)[:, [3, 0, 1, 2]]
+        s = np.array([node.scale or [1, 1, 1] for node in nodes], float)
+        return t, r, s
+
+    def sample(self, times):
+        """Node TRS ``(T, n, ...)`` at ``times`` (s): LINEAR channels, lerp / slerp."""
+        t, r, s = (np.repeat(a[None], len(times), 0) for a in self.rest_trs())
+        anim = self.gltf.animations[0]
+        for ch in anim.channels:
+            smp = anim.samplers[ch.sampler]
+            assert smp.interpolation == "LINEAR"
+            keys, vals = self.array(smp.input)[:, 0].astype(float), self.array(smp.output).astype(float)
+            k = np.clip(np.searchsorted(keys, times, side="right") - 1, 0, len(keys) - 1)
+            k1 = np.minimum(k + 1, len(keys) - 1)
+            a = np.clip((times - keys[k]) / np.maximum(keys[k1] - keys[k], 1e-12), 0, 1)
+            if ch.target.path == "rotation":
+                q0, q1 = vals[k][:, [3, 0, 1, 2]], vals[k1][:, [3, 0, 1, 2]]
+                r[:, ch.target.node] = quat.slerp(q0, q1, a)
+            else:
+                assert ch.target.path == "translation"
+                t[:, ch.target.node] = vals[k] + a[:, None] * (vals[k1] - vals[k])
+        return t, r, s
+
+    def world_matrices(self, t, r, s):
+        """``(T, n, 4, 4)`` node world matrices from TRS."""
+        local = np.zeros(t.shape[:-1] + (4, 4))
+        local[..., :3, :3] = quat.to_matrix(quat.normalize(r)) * s[..., None, :]
+        local[..., :3, 3] = t
+        local[..., 3, 3] = 1
+        world = np.empty_like(local)
+        for i in self.order():
+            p = self.parent[i]
+            world[:, i] = local[:, i] if p < 0 else world[:, p] @ local[:, i]
+        return world
+
+    def order(self):
+        """Node indices, parents before children."""
+        done, out = set(), []
+
+        def visit(i):
+            if i in done:
+                return
+            if self.parent[i] >= 0:
+                visit(self.parent[i])
+            done.add(i)
+            out.append(i)
+        for i in range(len(self.parent)):
+            visit(i)
+        return out
+
+    def skin_joint_names(self):
+        return [self.gltf.nodes[j].name for j in self.gltf.skins[0].joints]
+
+    def joint_world_positions(self, times, names):
+        """``(T, J, 3)`` world positions (m) of the joint nodes ``names``."""
+        world = self.world_matrices(*self.sample(times))
+        index = {n.name: i for i, n in enumerate(self.gltf.nodes)}
+        return world[:, [index[n] for n in names]][..., :3, 3]
+
+    def frame_times(self):
+        return self.array(self.gltf.animations[0].samplers[0].input)[:, 0].astype(float)
+
+
+# ----------------------------------------------------------------- clips
+def random_clip(rig, frames=24, seed=0, fps=30.0):
+    """A smooth random motion on the rig: each joint turns a little every frame."""
+    rng = np.random.default_rng(seed)
+    J = rig.skeleton.num_joints
+    start = quat.exp(rng.normal(0, 0.8, (1, J, 3)))
+    steps = np.cumsum(rng.normal(0, 0.08, (frames, J, 3)), axis=0)
+    local = quat.mul(start, quat.exp(steps))
+    root = rig.skeleton.offsets[0] + np.cumsum(rng.normal(0, 2.0, (frames, 3)), axis=0)
+    return Clip(root, local, fps)
+
+
+def turned_about_y(clip, degrees=90.0):
+    """The same clip with the whole body turned about the world Y axis."""
+    q = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(degrees))
+    local = clip.local_rotations.copy()
+    local[:, 0] = quat.mul(q, local[:, 0])
+    return Clip(quat.rotate(q, clip.root_positions), local, clip.fps)
+
+
+@pytest.fixture(scope="module")
+def shots(rig):
+    return load_library(rig=rig)
+
+
+def assert_fk_round_trip(path, skeleton, clip):
+    f = GltfFile(path)
+    times = f.frame_times()
+    assert len(times) == clip.num_frames
+    np.testing.assert_allclose(times, np.arange(clip.num_frames) / clip.fps, atol=1e-6)
+    names = f.skin_joint_names()
+    assert sorted(names) == sorted(skeleton.names)
+    got = f.joint_world_positions(times, names)
+    want = clip_fk(skeleton, clip)[1][:, [skeleton.names.index(n) for n in names]] * METRES_PER_CM
+    assert np.abs(got - want).max() < TOL_M
+    return f
+
+
+# ----------------------------------------------------------------- engine export
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_glb_round_trip_fk_matches_clip_fk(rig, tmp_path, seed):
+    clip = random_clip(rig, seed=seed, fps=[24.0, 30.0, 120.0][seed])
+    path = write_gltf(tmp_path / "shot.glb", rig.skeleton, clip)
+    assert_fk_round_trip(path, rig.skeleton, clip)
+
+
+def test_glb_round_trip_of_a_library_shot_and_turned_90_about_y(rig, tmp_path, shots):
+    shot = shots[0]
+    a = assert_fk_round_trip(write_gltf(tmp_path / "a.glb", shot.skeleton, shot.clip), shot.skeleton, shot.clip)
+    turned = turned_about_y(shot.clip)
+    b = assert_fk_round_trip(write_gltf(tmp_path / "b.glb", shot.skeleton, turned), shot.skeleton, turned)
+    # the file's own joints turned 90 deg about Y: (x, y, z) -> (z, y, -x)
+    names, times = a.skin_joint_names(), a.frame_times()
+    pa, pb = a.joint_world_positions(times, names), b.joint_world_positions(times, names)
+    np.testing.assert_allclose(pb, np.stack([pa[..., 2], pa[..., 1], -pa[..., 0]], -1), atol=TOL_M)
+
+
+def test_between_keys_the_file_slerps_like_the_engine(rig, tmp_path):
+    clip = random_clip(rig, frames=12, seed=5)
+    f = GltfFile(write_gltf(tmp_path / "s.glb", rig.skeleton, clip))
+    mid = (np.arange(clip.num_frames - 1) + 0.5) / clip.fps
+    got = f.joint_world_positions(mid, rig.skeleton.names)
+    half = Clip(0.5 * (clip.root_positions[:-1] + clip.root_positions[1:]),
+                quat.slerp(clip.local_rotations[:-1], clip.local_rotations[1:], 0.5), clip.fps)
+    want = clip_fk(rig.skeleton, half)[1] * METRES_PER_CM
+    assert np.abs(got - want).max() < TOL_M
+
+
+def test_inverse_binds_match_the_rest_pose_and_skin_the_mesh_like_the_engine(rig, tmp_path):
+    clip = random_clip(rig, frames=4, seed=3)
+    f = GltfFile(write_gltf(tmp_path / "s.glb", rig.skeleton, clip))
+    names = f.skin_joint_names()
+    ibm = f.array(f.gltf.skins[0].inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)  # column-major
+    index = {n.name: i for i, n in enumerate(f.gltf.nodes)}
+    joints = [index[n] for n in names]
+    # rest pose: each joint's world matrix times its inverse bind is the file's unit scale alone
+    rest = f.world_matrices(*(a[None] for a in f.rest_trs()))[0, joints]
+    np.testing.assert_allclose(rest @ ibm, np.broadcast_to(np.diag([METRES_PER_CM] * 3 + [1.0]), rest.shape),
+                               atol=1e-7)
+    rig_index = [rig.skeleton.names.index(n) for n in names]
+    np.testing.assert_allclose(-ibm[:, :3, 3], bind_positions(rig.skeleton)[rig_index], atol=1e-4)
+    # skin the bundled mesh from the file's joints and from the engine's skinning matrices
+    mesh = load_glb(rig=rig)["Batsman"]
+    prim = f.gltf.meshes[f.gltf.nodes[index["Batsman"]].mesh].primitives[0]
+    np.testing.assert_array_equal(f.array(prim.attributes.POSITION), mesh.positions)
+    skin_joint = f.array(prim.attributes.JOINTS_0).astype(int)         # indices into skin.joints
+    weights = f.array(prim.attributes.WEIGHTS_0).astype(float)
+    world = f.world_matrices(*f.sample(f.frame_times()))[:, joints]    # (F, Js, 4, 4)
+    g_rot, g_pos = clip_fk(rig.skeleton, clip)
+    engine_m = skinning_matrices(g_rot, g_pos, bind_positions(rig.skeleton)).astype(float)  # (F, J, 4, 4)
+    v = np.concatenate([mesh.positions, np.ones((len(mesh.positions), 1))], 1).astype(float)
+    for fr in (0, clip.num_frames - 1):
+        file_m = np.einsum("vk,vkij->vij", weights, (world[fr] @ ibm)[skin_joint])
+        eng_m = np.einsum("vk,vkij->vij", mesh.weights.astype(float), engine_m[fr][mesh.joints])
+        got = np.einsum("vij,vj->vi", file_m, v)[:, :3]
+        want = np.einsum("vij,vj->vi", eng_m, v)[:, :3] * METRES_PER_CM
+        assert np.abs(got - want).max() < 2e-3 * METRES_PER_CM    # float32 matrices on ~200 cm
+
+
+def test_gltf_with_embedded_buffer_holds_the_same_animation(rig, tmp_path):
+    clip = random_clip(rig, frames=6, seed=4)
+    a = GltfFile(write_gltf(tmp_path / "s.glb", rig.skeleton, clip))
+    b_path = write_gltf(tmp_path / "s.gltf", rig.skeleton, clip)
+    assert json.loads(b_path.read_text())["buffers"][0]["uri"].startswith("data:application/")
+    b = GltfFile(b_path)
+    times = a.frame_times()
+    np.testing.assert_array_equal(a.joint_world_positions(times, rig.skeleton.names),
+                                  b.joint_world_positions(times, rig.skeleton.names))
+
+
+def test_rotations_are_unit_xyzw_and_continuous(rig, tmp_path):
+    clip = random_clip(rig, frames=10, seed=6)
+    flipped = clip.copy()
+    flipped.local_rotations[1::2] *= -1          # same motion, alternating signs
+    f = GltfFile(write_gltf(tmp_path / "s.glb", rig.skeleton, flipped))
+    anim = f.gltf.animations[0]
+    rot = [f.array(anim.samplers[c.sampler].output) for c in anim.channels if c.target.path == "rotation"]
+    assert len(rot) == rig.skeleton.num_joints
+    for q in rot:
+        np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1, atol=1e-6)
+        assert (np.sum(q[1:] * q[:-1], axis=1) >= 0).all()
+    # the first key of each joint is the engine's (w,x,y,z) reordered to (x,y,z,w), up to sign
+    want = quat.normalize(clip.local_rotations[0])[:, [1, 2, 3, 0]]
+    got = np.array([q[0] for q in rot])
+    np.testing.assert_allclose(np.abs(np.sum(got * want, axis=1)), 1, atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["s.fbx", "s", "missing/s.glb"])
+def test_bad_path_raises_and_writes_nothing(rig, tmp_path, name):
+    with pytest.raises((ValueError, FileNotFoundError)):
+        write_gltf(tmp_path / name, rig.skeleton, random_clip(rig, frames=2))
+    assert list(tmp_path.rglob("*")) == []
+
+
+def test_nan_clip_raises_and_writes_nothing(rig, tmp_path):
+    clip = random_clip(rig, frames=3)
+    clip.root_positions[1, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        write_gltf(tmp_path / "s.glb", rig.skeleton, clip)
+    assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------- hitpoint adapt --out
+runner = CliRunner()
+
+
+def adapt(*args):
+    r = runner.invoke(cli, ["adapt", *map(str, args)])
+    return r.exit_code, r.stdout, r.stderr
+
+
+@pytest.mark.parametrize("args", [
+    ["--out", "{d}/a.fbx"],
+    ["--out", "{d}/missing/a.glb"],
+    ["--target", "nan", "100", "300", "--out", "{d}/a.glb"],
+    ["--hit", "10", "100", "inf", "--out", "{d}/a.gltf"],
+])
+def test_adapt_bad_input_exit_2_one_line_no_file(shots, tmp_path, args):
+    args = [a.format(d=tmp_path) for a in args]
+    if "--target" not in args:
+        args = ["--shot", shots[0].name] + (["--hit", "10", "100", "250"] if "--hit" not in args else []) + args
+    code, out, err = adapt(*args)
+    assert code == 2 and out == ""
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    assert list(tmp_path.rglob("*")) == []
+
+
+def test_adapt_out_glb_and_gltf(shots, tmp_path):
+    shot = shots[0]
+    hit = shot.hit_point + np.array([0.0, 5.0, 10.0])
+    files = {}
+    for ext in ("glb", "gltf", "bvh"):
+        code, out, err = adapt("--shot", shot.name, "--hit", *hit, "--out", tmp_path / f"a.{ext}")
+        assert code == 0, err
+        assert json.loads(out)["out"] == str(tmp_path / f"a.{ext}")
+        files[ext] = tmp_path / f"a.{ext}"
+    skel, clip = bvh.read(files["bvh"])
+    rig_skel, clip = conform_to_rig_of(shot, skel, clip)
+    for ext in ("glb", "gltf"):
+        f = GltfFile(files[ext])
+        assert f.gltf.animations[0].name == f"{shot.name}_adapted"
+        got = f.joint_world_positions(f.frame_times(), rig_skel.names)
+        # the BVH keeps 9 decimals of Euler degrees: the same motion to ~1e-5 cm
+        assert np.abs(got - clip_fk(rig_skel, clip)[1] * METRES_PER_CM).max() < TOL_M
+
+
+def conform_to_rig_of(shot, skel, clip):
+    from engine.rig import default_rig
+    return conform_to_rig(default_rig(), skel, clip, "test")
+
+
+# ----------------------------------------------------------------- viewer export
+@pytest.fixture(scope="module")
+def app():
+    from app.viewer import App
+    a = App((640, 360), headless=True)
+    for _ in range(3):
+        a.frame(dt=1 / 60)
+    yield a
+    a.close()
+
+
+def test_viewer_export_writes_mp4_bvh_glb(app, rig, tmp_path):
+    import imageio.v2 as iio2
+    out = tmp_path / "export"
+    frame, errors = app.settings.frame, app.state.errors
+    app.request_export(out)
+    app.frame(dt=1 / 60)
+    assert app.state.errors == errors, app.state.messages
+    ok, line = app.extras["last_export"]
+    assert ok and line.startswith(str(out)) and app.extras["last_capture"] == str(out)
+    assert app.settings.frame == frame
+    assert [p.name for p in tmp_path.iterdir()] == ["export"]        # no temporary folder left
+    F, stem = app.state.num_frames, f"{app.state.shot.name}_adapted"
+    assert len(list(out.glob("frame_*.png"))) == F
+    with iio2.get_reader(out / f"{stem}.mp4") as video:
+        assert video.count_frames() == F
+        w, h = app.compositor.viewport_px[2:]
+        assert video.get_data(0).shape == (h + h % 2, w + w % 2, 3)
+    adapted = app.state.adaptation.global_positions                     # (F, J, 3) what was on screen
+    skel, clip = conform_to_rig(rig, *bvh.read(out / f"{stem}.bvh"), "export")
+    assert clip.num_frames == F
+    assert np.abs(clip_fk(skel, clip)[1] - adapted).max() < 1e-3
+    f = GltfFile(out / f"{stem}.glb")
+    got = f.joint_world_positions(f.frame_times(), rig.skeleton.names)
+    assert np.abs(got - adapted * METRES_PER_CM).max() < TOL_M
+
+
+def test_viewer_export_that_fails_leaves_nothing(app, tmp_path, monkeypatch):
+    calls = []
+    render = app.render_scene
+
+    def failing(fbo):
+        calls.append(1)
+        if len(calls) == 5:
+            raise RuntimeError("GPU lost")
+        return render(fbo)
+    monkeypatch.setattr(app, "render_scene", failing)
+    frame, errors = app.settings.frame, app.state.errors
+    app.request_export(tmp_path / "export")
+    app.frame(dt=1 / 60)
+    assert len(calls) >= 5
+    assert list(tmp_path.iterdir()) == []
+    ok, line = app.extras["last_export"]
+    assert not ok and "GPU lost" in line
+    assert app.state.errors == errors + 1 and app.settings.frame == frame
+
+
+def test_viewer_export_never_writes_into_an_existing_folder(app, tmp_path):
+    keep = tmp_path / "export" / "mine.txt"
+    keep.parent.mkdir()
+    keep.write_text("the user's")
+    app.request_export(keep.parent)
+    app.frame(dt=1 / 60)
+    assert not app.extras["last_export"][0]
+    assert [p.name for p in keep.parent.iterdir()] == ["mine.txt"] and keep.read_text() == "the user's"
+    assert [p.name for p in tmp_path.iterdir()] == ["export"]
+
+
+def test_scripted_export_with_formats(app, tmp_path):
+    from app.errors import UserError
+    from app.script import ScriptPlayer
+    out = tmp_path / "only_motion"
+    player = ScriptPlayer([{"type": "export", "frame": 0, "dir": str(out), "formats": ["bvh", "gltf"]}])
+    player.apply(app, 0)
+    app.frame(dt=1 / 60)
+    stem = f"{app.state.shot.name}_adapted"
+    assert sorted(p.name for p in out.iterdir()) == [f"{stem}.bvh", f"{stem}.gltf"]
+    with pytest.raises(UserError, match="avi"):
+        ScriptPlayer([{"type": "export", "frame": 0, "dir": str(out), "formats": ["avi"]}])
