@@ -129,18 +129,17 @@ def _check_bind(src, src_blob: bytes, skin, names: list[str], skeleton: Skeleton
     acc = src.accessors[skin.inverseBindMatrices]
     start = (src.bufferViews[acc.bufferView].byteOffset or 0) + (acc.byteOffset or 0)
     ibm = np.frombuffer(src_blob, np.float32, 16 * acc.count, start).reshape(-1, 4, 4)  # column-major
-    mesh_bind = -ibm[:, 3, :3]                       # translation column of each inverse bind
-    skel_bind = bind_positions(skeleton)[[skeleton.names.index(n) for n in names]]
-    err = np.abs(mesh_bind - skel_bind).max(axis=1)
+    want = np.tile(np.eye(4), (len(names), 1, 1))    # world-aligned rest frames: a pure translation
+    want[:, 3, :3] = -bind_positions(skeleton)[[skeleton.names.index(n) for n in names]]
+    err = np.abs(ibm - want).max(axis=(1, 2))
     if err.max() > _BIND_TOLERANCE_CM:
         j = int(err.argmax())
         raise ValueError(f"{where}: the mesh is bound to another rest pose (joint {names[j]!r} "
                          f"{err[j]:.3g} cm off); export without the mesh")
 
 
-def _add_mesh(gltf, out: _Buffer, skeleton: Skeleton, mesh_path: Path) -> tuple[int, list[int]]:
-    """Copy the skinned batsman (mesh, material, skin) into ``gltf``.
-    Returns (mesh node index, skin joint node indices)."""
+def _add_mesh(gltf, out: _Buffer, skeleton: Skeleton, mesh_path: Path) -> int:
+    """Copy the skinned batsman (mesh, material, skin) into ``gltf``; returns its node index."""
     import pygltflib as g
     src = g.GLTF2().load(str(mesh_path))
     src_blob = src.binary_blob()
@@ -153,22 +152,25 @@ def _add_mesh(gltf, out: _Buffer, skeleton: Skeleton, mesh_path: Path) -> tuple[
     _check_bind(src, src_blob, skin, names, skeleton, mesh_path)
     memo: dict = {}
     materials: dict = {}
-    prims = []
-    for p in src.meshes[mesh_index].primitives:
-        attrs = g.Attributes(**{a: _copy_accessor(src, src_blob, getattr(p.attributes, a), out, memo)
-                                for a in _ATTRIBUTES if getattr(p.attributes, a, None) is not None})
-        if p.material is not None and p.material not in materials:
-            gltf.materials.append(copy.deepcopy(src.materials[p.material]))
-            materials[p.material] = len(gltf.materials) - 1
-        prims.append(g.Primitive(attributes=attrs, mode=p.mode,
-                                 indices=None if p.indices is None else _copy_accessor(src, src_blob, p.indices, out, memo),
-                                 material=materials.get(p.material)))
+    prims = [_copy_primitive(gltf, src, src_blob, p, out, memo, materials) for p in src.meshes[mesh_index].primitives]
     gltf.meshes.append(g.Mesh(name=MESH_NAME, primitives=prims))
     joints = [skeleton.names.index(n) for n in names]      # joint nodes are 0..J-1 in skeleton order
     ibm = None if skin.inverseBindMatrices is None else _copy_accessor(src, src_blob, skin.inverseBindMatrices, out, memo)
     gltf.skins.append(g.Skin(name="rig", joints=joints, inverseBindMatrices=ibm))
     gltf.nodes.append(g.Node(name=MESH_NAME, mesh=len(gltf.meshes) - 1, skin=0))
-    return len(gltf.nodes) - 1, joints
+    return len(gltf.nodes) - 1
+
+
+def _copy_primitive(gltf, src, src_blob: bytes, p, out: _Buffer, memo: dict, materials: dict):
+    """One primitive of ``src`` with its standard attributes, indices and material."""
+    import pygltflib as g
+    attrs = g.Attributes(**{a: _copy_accessor(src, src_blob, getattr(p.attributes, a), out, memo)
+                            for a in _ATTRIBUTES if getattr(p.attributes, a, None) is not None})
+    if p.material is not None and p.material not in materials:
+        gltf.materials.append(copy.deepcopy(src.materials[p.material]))
+        materials[p.material] = len(gltf.materials) - 1
+    indices = None if p.indices is None else _copy_accessor(src, src_blob, p.indices, out, memo)
+    return g.Primitive(attributes=attrs, mode=p.mode, indices=indices, material=materials.get(p.material))
 
 
 # ----------------------------------------------------------------- animation
@@ -231,7 +233,7 @@ def build_gltf(skeleton: Skeleton, clip: Clip, mesh_path: str | Path | None = No
     out = _Buffer(gltf)
     scene_nodes = []
     if with_mesh:
-        scene_nodes.append(_add_mesh(gltf, out, skeleton, Path(mesh_path) if mesh_path else default_mesh_path())[0])
+        scene_nodes.append(_add_mesh(gltf, out, skeleton, Path(mesh_path) if mesh_path else default_mesh_path()))
     roots = [int(i) for i in np.nonzero(skeleton.parents < 0)[0]]
     gltf.nodes.append(g.Node(name=SCALE_NODE_NAME, scale=[METRES_PER_CM] * 3, children=roots))
     scene_nodes.insert(0, len(gltf.nodes) - 1)

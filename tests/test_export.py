@@ -240,6 +240,20 @@ def test_bad_path_raises_and_writes_nothing(rig, tmp_path, name):
     assert list(tmp_path.rglob("*")) == []
 
 
+def test_a_skeleton_the_mesh_was_not_bound_to_exports_without_the_mesh(rig, tmp_path):
+    import copy
+    skel = copy.deepcopy(rig.skeleton)
+    skel.offsets[skel.index("LeftForeArm")] *= 1.2          # a longer upper arm
+    clip = random_clip(rig, frames=5, seed=7)
+    with pytest.raises(ValueError, match="LeftForeArm"):
+        write_gltf(tmp_path / "s.glb", skel, clip)
+    assert list(tmp_path.iterdir()) == []
+    f = GltfFile(write_gltf(tmp_path / "s.glb", skel, clip, with_mesh=False))
+    assert not f.gltf.meshes and not f.gltf.skins
+    got = f.joint_world_positions(f.frame_times(), skel.names)
+    assert np.abs(got - clip_fk(skel, clip)[1] * METRES_PER_CM).max() < TOL_M
+
+
 def test_nan_clip_raises_and_writes_nothing(rig, tmp_path):
     clip = random_clip(rig, frames=3)
     clip.root_positions[1, 0] = np.nan
