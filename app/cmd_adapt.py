@@ -166,9 +166,8 @@ def register(cli: typer.Typer) -> None:
           --falloff CM        importance-blend falloff distance (default 90)
           --wrist-dof 0|2     left wrist locked (0, default) or 2 DOF
           --solver ccd|dls    IK solver (default ccd)
-          --out FILE          write the adapted shot (atomic): .bvh, .csv, or .glb/.gltf
-                              (skinned batsman + animation; data in cm under a
-                              0.01 scale node, so it imports in metres)
+          --out FILE          write the adapted shot (atomic): .bvh, .csv, .glb
+                              or .gltf (skinned batsman + animation, metres)
         JSON keys: shot, hit_frame, source_hit_point, desired_hit_point,
         bat_error_cm, blend (per frame), grip_error_cm, grip_error_deg, solve_ms, ...
         """
