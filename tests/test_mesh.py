@@ -153,6 +153,7 @@ def test_committed_glb_matches_the_script(body, meshes, rig):
     assert np.array_equal(model["body"].faces, body.indices)
     assert np.allclose(model["weights"], body.weights, atol=1e-6)
     assert np.array_equal(model["shadow"].faces, meshes["BatsmanShadow"].indices)
+    assert np.array_equal(model["lod1"].faces, meshes["BatsmanLod1"].indices)
 
 
 def test_unknown_skin_joint_is_a_clear_error(tmp_path, rig):
@@ -166,11 +167,13 @@ def test_unknown_skin_joint_is_a_clear_error(tmp_path, rig):
         load_glb(path, rig)
 
 
-def test_shadow_caster_is_a_coarse_copy(body, meshes, rig):
-    """``BatsmanShadow``: the same skin, a third of the triangles, the same extent."""
-    shadow = meshes["BatsmanShadow"]
+@pytest.mark.parametrize("name, share", [("BatsmanShadow", 0.5), ("BatsmanLod1", 0.55)])
+def test_coarse_copies_keep_skin_and_extent(body, meshes, rig, name, share):
+    """``BatsmanShadow`` (the shadow caster) and ``BatsmanLod1`` (drawn when he is small
+    on screen): the same skin, a fraction of the triangles, the same extent."""
+    shadow = meshes[name]
     assert shadow.skin_joint_names == rig.skeleton.names
-    assert shadow.num_triangles < body.num_triangles / 2
+    assert shadow.num_triangles < body.num_triangles * share
     assert np.allclose(shadow.weights.sum(1), 1.0, atol=1e-5)
     assert np.allclose(shadow.positions.min(0), body.positions.min(0), atol=2.0)
     assert np.allclose(shadow.positions.max(0), body.positions.max(0), atol=2.0)

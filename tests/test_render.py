@@ -208,9 +208,9 @@ def test_gpu_skinning_matches_linear_blend(renderer, rig):
         with renderer.ctx:
             body, ghost = renderer.posed.body.read(), renderer.ghost_posed.body.read()
             caster = renderer.posed.caster.read() if renderer.posed.caster is not None else None
-        pos, nrm = _linear_blend(renderer.body_mesh, M)
+        pos, nrm = _linear_blend(renderer.posed.mesh, M)
         assert np.abs(body[:, :3] - pos).max() < 1e-3 and np.abs(body[:, 3:] - nrm).max() < 1e-4
-        assert np.abs(ghost[:, :3] - _linear_blend(renderer.body_mesh, G)[0]).max() < 1e-3
+        assert np.abs(ghost[:, :3] - _linear_blend(renderer.ghost_posed.mesh, G)[0]).max() < 1e-3
         if caster is not None:
             assert np.abs(caster - _linear_blend(renderer.shadow_mesh, M, False)[0]).max() < 1e-3
 
@@ -299,3 +299,31 @@ def test_compositor_caches_only_repeated_scenes(renderer):
         comp.draw_scene("a", draw(red))
         assert len(drawn) == 4 and pixel() == [255, 0, 0] and comp.scene_key == "b"
         comp.release()
+
+
+def test_level_of_detail_follows_screen_size_and_keeps_the_silhouette(renderer, rig):
+    """Small on screen the coarser batsman is drawn, close up the finest; both levels
+    cover the same pixels (silhouettes agree to within a few percent) and are skinned
+    with the same pose."""
+    from app.render import SceneView, look_at, perspective
+    from app.render.scene import LOD_FULL_PX
+    _, M = pose(rig, dict(ARMS_DOWN, LeftForeArm=((0, 1, 0), -70)))
+    if len(renderer.body_levels) < 2:
+        pytest.skip("no BatsmanLod1 in the mesh file")
+
+    def view(distance, skin=M, **kw):
+        eye = np.array(TARGET) + (np.array(EYE) - np.array(TARGET)) * distance
+        return SceneView(look_at(eye, TARGET), perspective(40.0, SIZE[0] / SIZE[1], 5.0, 12000.0), SIZE, skin,
+                         show_pitch=False, shadows=False, **kw)
+
+    far = view(1.0)
+    assert renderer._detail_level(far, far.proj @ far.view) == 1
+    near = view(0.25)
+    assert renderer._detail_level(near, near.proj @ near.view) == 0
+    assert LOD_FULL_PX > 0
+    masks = []
+    for level in (0, 1):
+        img = render(renderer, view(0.5, detail=level))
+        masks.append(changed(img, render(renderer, view(0.5, skin=None, detail=level))))
+    union, inter = (masks[0] | masks[1]).sum(), (masks[0] & masks[1]).sum()
+    assert union > 2000 and inter / union > 0.95

@@ -64,6 +64,7 @@ class Part:
 # along paths and subdivisions by it. Set only through ``build(detail=...)``.
 BODY_DETAIL = 0.65      # the drawn mesh (~20k triangles: llvmpipe pays per triangle)
 SHADOW_DETAIL = 0.4     # the shadow caster (only its outline matters)
+LOD1_DETAIL = 0.5       # drawn when he is small on screen: half the triangles, the same silhouette
 _detail = 1.0
 
 
@@ -587,7 +588,8 @@ def body_at(rig: Rig, detail: float) -> tuple[Part, np.ndarray, np.ndarray, np.n
     return body, gloss, joints, weights
 
 
-def build(rig: Rig | None = None, detail: float = BODY_DETAIL, shadow_detail: float | None = SHADOW_DETAIL) -> dict:
+def build(rig: Rig | None = None, detail: float = BODY_DETAIL, shadow_detail: float | None = SHADOW_DETAIL,
+          lod1_detail: float | None = LOD1_DETAIL) -> dict:
     rig = rig or default_rig()
     body, gloss, joints, weights = body_at(rig, detail)
     ballp, ball_gloss = ball(rig.ball_radius)
@@ -595,6 +597,8 @@ def build(rig: Rig | None = None, detail: float = BODY_DETAIL, shadow_detail: fl
              "ball": ballp, "ball_gloss": ball_gloss, "bind": bind_positions(rig.skeleton), "rig": rig}
     if shadow_detail is not None:
         model["shadow"], model["shadow_gloss"], model["shadow_joints"], model["shadow_weights"] = body_at(rig, shadow_detail)
+    if lod1_detail is not None:
+        model["lod1"], model["lod1_gloss"], model["lod1_joints"], model["lod1_weights"] = body_at(rig, lod1_detail)
     return model
 
 
@@ -638,9 +642,10 @@ def write_glb(model: dict, path: Path) -> None:
     body_prim = prim(model["body"], model["body_gloss"], model["joints"], model["weights"])
     ball_prim = prim(model["ball"], model["ball_gloss"])
     meshes = [g.Mesh(name="Batsman", primitives=[body_prim]), g.Mesh(name="Ball", primitives=[ball_prim])]
-    if "shadow" in model:
-        meshes.append(g.Mesh(name="BatsmanShadow", primitives=[
-            prim(model["shadow"], model["shadow_gloss"], model["shadow_joints"], model["shadow_weights"])]))
+    for key, name in (("shadow", "BatsmanShadow"), ("lod1", "BatsmanLod1")):
+        if key in model:
+            meshes.append(g.Mesh(name=name, primitives=[
+                prim(model[key], model[f"{key}_gloss"], model[f"{key}_joints"], model[f"{key}_weights"])]))
     J = skel.num_joints
     ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
     ibm[:, :3, 3] = -model["bind"]
@@ -653,8 +658,8 @@ def write_glb(model: dict, path: Path) -> None:
                             children=[int(c) for c in skel.children(i)]))
     nodes.append(g.Node(name="Batsman", mesh=0, skin=0))
     nodes.append(g.Node(name="Ball", mesh=1))
-    if len(meshes) > 2:
-        nodes.append(g.Node(name="BatsmanShadow", mesh=2, skin=0))
+    for mi in range(2, len(meshes)):
+        nodes.append(g.Node(name=meshes[mi].name, mesh=mi, skin=0))
     roots = [i for i in range(J) if skel.parents[i] < 0]
     gltf = g.GLTF2(
         asset=g.Asset(version="2.0", generator="hitpoint tools/make_batsman.py"),
@@ -690,7 +695,8 @@ def main() -> None:
     out = assets_dir() / "batsman.glb"
     write_glb(model, out)
     print(f"wrote {out}: {len(model['body'].vertices)} vertices, {len(model['body'].faces)} triangles "
-          f"(+ shadow caster {len(model['shadow'].faces)}, ball {len(model['ball'].faces)})")
+          f"(+ shadow caster {len(model['shadow'].faces)}, LOD1 {len(model['lod1'].faces)}, "
+          f"ball {len(model['ball'].faces)})")
 
 
 if __name__ == "__main__":

@@ -29,6 +29,7 @@ from . import props
 from .gl import DynamicBuffer, mat_bytes, program, set_uniform, shader_source
 
 IDENTITY = np.eye(4, dtype=np.float32)
+LOD_FULL_PX = 480          # the finest batsman from this screen height (px) up; below it the coarser
 SHADOW_SIZE = 384          # the batsman's shadow map, fitted tightly around him
 STATIC_SHADOW_SIZE = 512    # the stumps' (drawn into the cached static layer)
 BACKGROUND = (0.60, 0.74, 0.90)
@@ -67,6 +68,7 @@ class SceneView:
     skeleton_width_px: float = 3.0
     skeleton_on_top: bool = True  # skeleton lines ignore depth (visible inside the mesh)
     antialias: bool = False       # single-sampled targets: MSAA-resolved static layer, FXAA on what moves
+    detail: int | None = None     # the batsman's level of detail (0 finest); None: by his size on screen
 
 
 def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
@@ -177,6 +179,7 @@ class _Skinner:
         self.vao = _vao(ctx, prog, attrs)
         self.stride = 24 if with_normals else 12
         self.out = ctx.buffer(reserve=self.count * self.stride)   # (V, 3[+3]) float32, interleaved
+        self.key = None      # the bone matrices (bytes) the buffer was skinned with
 
     def skin(self) -> None:
         """Skin with the matrices currently in the bound bone block."""
@@ -190,38 +193,74 @@ class _Skinner:
 
 class _PosedBody:
     """The batsman skinned on the GL side once per pose (``_Skinner``), drawn by the static
-    programs: the lit mesh and the coarse shadow caster (skinned in the same pass)."""
+    programs: one of his levels of detail lit, and the coarse shadow caster (skinned with it).
 
-    def __init__(self, ctx, skin_progs, bones, body_mesh, caster_mesh, lit_prog, depth_prog):
-        self.bones = bones
-        self.body = _Skinner(ctx, skin_progs[True], body_mesh, True)
+    ``levels`` are the drawn meshes, finest first; ``update(..., level)`` skins only the
+    level about to be drawn (llvmpipe shades 4x4 pixel blocks, so a mesh whose triangles
+    are a few pixels big costs several times its pixels: far away, the coarser level)."""
+
+    def __init__(self, ctx, skin_progs, num_joints, body_meshes, caster_mesh, lit_prog, depth_prog):
+        self.bones = ctx.buffer(reserve=num_joints * 64)   # (J,4,4) float32: this body's bone block
+        self.levels = [_BodyLevel(ctx, skin_progs[True], m, lit_prog, depth_prog) for m in body_meshes]
         self.caster = _Skinner(ctx, skin_progs[False], caster_mesh, False) if caster_mesh is not None else None
-        self.static = [ctx.buffer(np.ascontiguousarray(a, dtype="f4").tobytes())
-                       for a in (body_mesh.colors, body_mesh.gloss)]
-        self.ibo = ctx.buffer(np.ascontiguousarray(body_mesh.indices, dtype="u4").tobytes())
-        self.lit = _vao(ctx, lit_prog, [(self.body.out, "3f 3f", "in_pos", "in_normal"),
-                                        (self.static[0], "4f", "in_color"), (self.static[1], "1f", "in_gloss")],
-                        self.ibo)
         if self.caster is not None:
             self.caster_ibo = ctx.buffer(np.ascontiguousarray(caster_mesh.indices, dtype="u4").tobytes())
-            self.shadow = _vao(ctx, depth_prog, [(self.caster.out, "3f", "in_pos")], self.caster_ibo)
-        else:
-            self.shadow = _vao(ctx, depth_prog, [(self.body.out, "3f 12x", "in_pos")], self.ibo)
-        self.key = None
+            self.caster_vao = _vao(ctx, depth_prog, [(self.caster.out, "3f", "in_pos")], self.caster_ibo)
+        self.level = 0
+        self._bones_key = None
 
-    def update(self, skin_matrices: np.ndarray) -> None:
-        """Upload ``skin_matrices (J,4,4)`` (one buffer) and skin unless that pose is already there."""
+    @property
+    def body(self) -> "_Skinner":
+        """The skinner of the level last updated."""
+        return self.levels[self.level].skinner
+
+    @property
+    def mesh(self):
+        return self.levels[self.level].mesh
+
+    @property
+    def lit(self):
+        return self.levels[self.level].lit
+
+    @property
+    def shadow(self):
+        """Depth-only VAO: the coarse caster if there is one, else the drawn level."""
+        return self.caster_vao if self.caster is not None else self.levels[self.level].depth
+
+    def update(self, skin_matrices: np.ndarray, level: int | None = None) -> None:
+        """Make ``level`` (default: the current one) and the caster hold the pose
+        ``skin_matrices (J,4,4)``: one bone-block upload per pose, each mesh skinned once."""
+        self.level = self.level if level is None else min(max(int(level), 0), len(self.levels) - 1)
         m = np.ascontiguousarray(skin_matrices, np.float32)
         key = m.tobytes()
-        if key == self.key:
+        targets = [self.levels[self.level].skinner] + ([self.caster] if self.caster is not None else [])
+        stale = [t for t in targets if t.key != key]
+        if not stale:
             return
-        self.bones.orphan()
-        self.bones.write(mat_bytes(m))
+        if self._bones_key != key:
+            self.bones.orphan()
+            self.bones.write(mat_bytes(m))
+            self._bones_key = key
         self.bones.bind_to_uniform_block(0)
-        self.body.skin()
-        if self.caster is not None:
-            self.caster.skin()
-        self.key = key
+        for t in stale:
+            t.skin()
+            t.key = key
+
+
+class _BodyLevel:
+    """One level of detail of the batsman: its skinner and the lit and depth VAOs over
+    the skinned buffer."""
+
+    def __init__(self, ctx, skin_prog, mesh, lit_prog, depth_prog):
+        self.mesh = mesh
+        self.skinner = _Skinner(ctx, skin_prog, mesh, True)
+        self.static = [ctx.buffer(np.ascontiguousarray(a, dtype="f4").tobytes()) for a in (mesh.colors, mesh.gloss)]
+        self.ibo = ctx.buffer(np.ascontiguousarray(mesh.indices, dtype="u4").tobytes())
+        out = self.skinner.out
+        self.lit = _vao(ctx, lit_prog, [(out, "3f 3f", "in_pos", "in_normal"),
+                                        (self.static[0], "4f", "in_color"), (self.static[1], "1f", "in_gloss")],
+                        self.ibo)
+        self.depth = _vao(ctx, depth_prog, [(out, "3f 12x", "in_pos")], self.ibo)
 
 
 class SceneRenderer:
@@ -248,13 +287,14 @@ class SceneRenderer:
         self.shadow_mesh = meshes.get("BatsmanShadow")
         if self.shadow_mesh is not None and self.shadow_mesh.joints is None:
             self.shadow_mesh = None
+        lod1 = meshes.get("BatsmanLod1")
+        self.body_levels = [self.body_mesh] + ([lod1] if lod1 is not None and lod1.joints is not None else [])
         # the posed batsman; the coarse copy casts the shadow (a third of the triangles, the same outline)
         J = rig.skeleton.num_joints
         skin_progs = {n: _skin_program(ctx, J, n) for n in (True, False)}
-        self.bones = ctx.buffer(reserve=J * 64)      # (J,4,4) float32: the per-pose bone block
-        self.posed = _PosedBody(ctx, skin_progs, self.bones, self.body_mesh, self.shadow_mesh,
+        self.posed = _PosedBody(ctx, skin_progs, J, self.body_levels, self.shadow_mesh,
                                 self.p_static, self.p_depth_static)
-        self.ghost_posed = _PosedBody(ctx, skin_progs, self.bones, self.body_mesh, None,
+        self.ghost_posed = _PosedBody(ctx, skin_progs, J, self.body_levels, None,
                                       self.p_static, self.p_depth_static)
         self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static)
         self.wickets_mesh = props.wickets()
@@ -534,6 +574,7 @@ class SceneRenderer:
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         ctx.depth_func = "<"
         shadows = bool(view.shadows)
+        self.posed.level = self.ghost_posed.level = self._detail_level(view, vp)
         static = self._static_layer(view, target_fbo, vp, eye, shadows, aa)
         ghost = self._ghost_layer(view, vp, eye) if static is not None else None
         if static is None:
@@ -580,6 +621,22 @@ class SceneRenderer:
         ctx.disable(moderngl.BLEND)
         ctx.depth_func = "<"
 
+    def _detail_level(self, view: SceneView, vp: np.ndarray) -> int:
+        """The batsman's level of detail for this frame: ``view.detail`` if set, else the
+        finest when his (and his ghost's) boxes stand ``LOD_FULL_PX`` or more tall on screen."""
+        last = len(self.body_levels) - 1
+        if view.detail is not None:
+            return min(max(int(view.detail), 0), last)
+        skins = [m for m in (view.skin_matrices, view.ghost_skin_matrices) if m is not None]
+        if last == 0 or not skins:
+            return 0
+        corners = np.concatenate([skinned_box_corners(m, self._joint_boxes) for m in skins])
+        clip = np.concatenate([corners, np.ones((len(corners), 1))], 1) @ vp.astype(float).T
+        if np.any(clip[:, 3] <= 1e-3):
+            return 0                                  # the camera is in among him: close up
+        ndc_y = clip[:, 1] / clip[:, 3]
+        return 0 if (ndc_y.max() - ndc_y.min()) * 0.5 * view.size[1] >= LOD_FULL_PX else last
+
     def _ghost_layer(self, view: SceneView, vp, eye):
         """The ghost's nearest surface (colour with alpha, depth) for this camera and pose, drawn
         only when they change (the source pose holds still while the target is dragged);
@@ -589,7 +646,7 @@ class SceneRenderer:
         if view.ghost_skin_matrices is None or view.ghost_alpha <= 0:
             return None
         ghost = np.asarray(view.ghost_skin_matrices, np.float32)
-        key = (tuple(view.size), vp.tobytes(), ghost.tobytes(), float(view.ghost_alpha))
+        key = (tuple(view.size), vp.tobytes(), ghost.tobytes(), float(view.ghost_alpha), self.ghost_posed.level)
         layer = self._ghost
         if layer.key != key:
             ctx = self.ctx
@@ -881,7 +938,11 @@ def _rgba(c) -> tuple:
 
 
 def render_image(renderer: SceneRenderer, view: SceneView, samples: int = 4) -> np.ndarray:
-    """Render ``view`` offscreen with MSAA (4x by default); ``(h, w, 3)`` uint8, top row first."""
+    """Render ``view`` offscreen with MSAA (4x by default); ``(h, w, 3)`` uint8, top row first.
+    Stills draw the finest batsman unless ``view.detail`` says otherwise."""
+    if view.detail is None:
+        from dataclasses import replace
+        view = replace(view, detail=0)
     w, h = view.size
     msaa, resolve = renderer.offscreen_targets((w, h), samples)
     renderer.render(view, msaa)
