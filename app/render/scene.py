@@ -30,7 +30,7 @@ from .gl import DynamicBuffer, mat_bytes, program, set_uniform, shader_source
 
 IDENTITY = np.eye(4, dtype=np.float32)
 LOD_FULL_PX = 480          # the finest batsman from this screen height (px) up; below it the coarser
-SHADOW_SIZE = 384          # the batsman's shadow map, fitted tightly around him
+SHADOW_SIZE = 256          # the batsman's shadow map, fitted tightly around him (~1 cm a texel)
 STATIC_SHADOW_SIZE = 512    # the stumps' (drawn into the cached static layer)
 BACKGROUND = (0.60, 0.74, 0.90)
 
