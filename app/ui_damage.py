@@ -20,10 +20,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 BAND_PX = 8.0      # band height in display pixels: one text line is ~2 bands
 _MIX = np.random.default_rng(0x41A7).integers(1, 2**63, size=32, dtype=np.uint64) | np.uint64(1)
-_STEP = np.uint64(0x9E3779B97F4A7C15)
 
 
 @dataclass
@@ -57,49 +57,70 @@ class Batch:
 def triangle_rects(geo: UiGeometry) -> np.ndarray:
     """Screen rectangles ``(T, 4)`` each triangle can touch: its bounding box
     cut by its command's clip rectangle (empty when x1 <= x0 or y1 <= y0)."""
-    a, b, c = (geo.positions[geo.indices[:, k]] for k in range(3))   # (T, 2) each
-    lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
-    clip = geo.clips[geo.tri_cmd]
-    return np.concatenate([np.maximum(lo, clip[:, :2]), np.minimum(hi, clip[:, 2:])], 1)
+    return _triangle_rects(geo.positions, geo.indices, geo.tri_cmd.astype(np.int64), geo.clips)
 
 
 def triangle_hashes(geo: UiGeometry) -> np.ndarray:
     """A 64-bit hash ``(T,)`` of each triangle's vertices, clip and texture: a
     random odd-weighted sum of its 32-bit words (any change of one word changes it)."""
-    vertex = geo.words.astype(np.uint64) @ _MIX[:5]                  # (N,) wraps mod 2**64
-    vertex ^= vertex >> np.uint64(29)
     clip_words = np.ascontiguousarray(geo.clips, np.float32).view(np.uint32).astype(np.uint64)
-    command = clip_words @ _MIX[5:9] + geo.textures.astype(np.uint64) * _MIX[9]   # (C,)
-    i = geo.indices
-    h = vertex[i[:, 0]] * _MIX[10] + vertex[i[:, 1]] * _MIX[11] + vertex[i[:, 2]] * _MIX[12] \
-        + command[geo.tri_cmd]
-    return h ^ (h >> np.uint64(31))
+    command = clip_words @ _MIX[5:9] + geo.textures.astype(np.uint64) * _MIX[9]   # (C,), wraps mod 2**64
+    return _triangle_hashes(geo.words, geo.indices, geo.tri_cmd.astype(np.int64), command, _MIX)
 
 
 def band_signatures(rects: np.ndarray, hashes: np.ndarray, keep: tuple) -> np.ndarray:
     """Per band of ``BAND_PX`` rows of the ``keep`` rectangle (x0, y0, x1, y1),
     a hash ``(B,)`` of the ordered sequence of triangles touching it."""
-    x0, y0, x1, y1 = keep
+    x0, y0, x1, y1 = (float(v) for v in keep)
     n_bands = max(int(np.ceil((y1 - y0) / BAND_PX)), 1)
-    inside = (rects[:, 0] < x1) & (rects[:, 2] > x0) & (rects[:, 1] < y1) & (rects[:, 3] > y0) \
-        & (rects[:, 2] > rects[:, 0]) & (rects[:, 3] > rects[:, 1])
-    tri = np.flatnonzero(inside)
-    lo = np.clip(((rects[tri, 1] - y0) // BAND_PX).astype(np.int64), 0, n_bands - 1)
-    hi = np.clip(((rects[tri, 3] - y0 - 1e-3) // BAND_PX).astype(np.int64), 0, n_bands - 1)
-    span = hi - lo + 1
-    pair_tri = np.repeat(tri, span)                      # (P,) triangle of each (band, triangle) pair
-    pair_band = np.repeat(lo, span) + (np.arange(span.sum()) - np.repeat(np.cumsum(span) - span, span))
-    order = np.argsort(pair_band, kind="stable")        # by band, then draw order
-    pair_tri, pair_band = pair_tri[order], pair_band[order]
-    starts = np.searchsorted(pair_band, np.arange(n_bands))
-    rank = (np.arange(len(pair_band)) - starts[pair_band]).astype(np.uint64)
-    # position-dependent mix: the same triangles in another order hash differently
-    terms = hashes[pair_tri] * (rank * _STEP + np.uint64(1)) + rank
+    return _band_signatures(rects, hashes, x0, y0, x1, y1, BAND_PX, n_bands)
+
+
+# The per-triangle loops are compiled: numpy's per-call overhead on a few thousand
+# triangles cost more (~1.5 ms a frame) than the pixels the tracking saves.
+@njit(cache=True, nogil=True)
+def _triangle_rects(positions, indices, tri_cmd, clips):
+    T = indices.shape[0]
+    out = np.empty((T, 4), np.float32)
+    for t in range(T):
+        a, b, c = indices[t, 0], indices[t, 1], indices[t, 2]
+        k = tri_cmd[t]
+        out[t, 0] = max(min(positions[a, 0], positions[b, 0], positions[c, 0]), clips[k, 0])
+        out[t, 1] = max(min(positions[a, 1], positions[b, 1], positions[c, 1]), clips[k, 1])
+        out[t, 2] = min(max(positions[a, 0], positions[b, 0], positions[c, 0]), clips[k, 2])
+        out[t, 3] = min(max(positions[a, 1], positions[b, 1], positions[c, 1]), clips[k, 3])
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _triangle_hashes(words, indices, tri_cmd, command, mix):
+    T, W = indices.shape[0], words.shape[1]
+    out = np.empty(T, np.uint64)
+    for t in range(T):
+        h = command[tri_cmd[t]]
+        for corner in range(3):
+            v = indices[t, corner]
+            for w in range(W):
+                h += np.uint64(words[v, w]) * mix[10 + 5 * corner + w]
+        out[t] = h ^ (h >> np.uint64(31))
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _band_signatures(rects, hashes, x0, y0, x1, y1, band_px, n_bands):
     sig = np.zeros(n_bands, np.uint64)
-    used = np.flatnonzero(np.diff(np.concatenate([[-1], pair_band])))     # first pair of each band
-    if len(used):
-        sig[pair_band[used]] = np.add.reduceat(terms, used)
-    return sig ^ np.bincount(pair_band, minlength=n_bands).astype(np.uint64) * _MIX[20]
+    count = np.zeros(n_bands, np.uint64)
+    step = np.uint64(0x9E3779B97F4A7C15)
+    for t in range(rects.shape[0]):
+        rx0, ry0, rx1, ry1 = rects[t, 0], rects[t, 1], rects[t, 2], rects[t, 3]
+        if rx1 <= rx0 or ry1 <= ry0 or rx0 >= x1 or rx1 <= x0 or ry0 >= y1 or ry1 <= y0:
+            continue
+        lo = min(max(int((ry0 - y0) // band_px), 0), n_bands - 1)
+        hi = min(max(int((ry1 - y0 - 1e-3) // band_px), 0), n_bands - 1)
+        for b in range(lo, hi + 1):
+            sig[b] = sig[b] * step + hashes[t]      # order matters: a rolling hash per band
+            count[b] += np.uint64(1)
+    return sig ^ (count * step)
 
 
 def dirty_rects(old: np.ndarray | None, new: np.ndarray, keep: tuple) -> list[tuple]:
