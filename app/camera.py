@@ -35,7 +35,13 @@ class OrbitCamera:
         return self.pivot + self.distance * direction
 
     def view(self) -> np.ndarray:
-        return look_at(self.eye, self.pivot)
+        """World->camera ``(4,4)``; remembered for the last pose (asked for several times a frame)."""
+        key = (*np.asarray(self.pivot, float).tolist(), float(self.yaw), float(self.pitch), float(self.distance))
+        cached = self.__dict__.get("_view_cache")
+        if cached is None or cached[0] != key:
+            cached = (key, look_at(self.eye, self.pivot))
+            self.__dict__["_view_cache"] = cached
+        return cached[1].copy()
 
     def proj(self, aspect: float) -> np.ndarray:
         return perspective(self.fovy, max(aspect, 1e-3), self.near, self.far)

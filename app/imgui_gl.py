@@ -174,7 +174,7 @@ class ImguiRenderer:
             if not nv or not ni:
                 continue
             raw = (ctypes.c_char * (nv * imgui.VERTEX_SIZE)).from_address(c.vtx_buffer.data_address())
-            words.append(np.frombuffer(bytes(raw), np.uint32).reshape(nv, imgui.VERTEX_SIZE // 4))
+            words.append(np.frombuffer(raw, np.uint32).reshape(nv, imgui.VERTEX_SIZE // 4))  # a view; copied below
             idx = np.frombuffer((ctypes.c_char * (ni * imgui.INDEX_SIZE)).from_address(
                 c.idx_buffer.data_address()), itype).astype(np.uint32) + base
             for cmd in c.cmd_buffer:

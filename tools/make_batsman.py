@@ -63,7 +63,8 @@ class Part:
 # Tessellation level: 1.0 is the reference; the primitives scale their ring counts, steps
 # along paths and subdivisions by it. Set only through ``build(detail=...)``.
 BODY_DETAIL = 0.65      # the drawn mesh (~20k triangles: llvmpipe pays per triangle)
-SHADOW_DETAIL = 0.4     # the shadow caster (only its outline matters)
+SHADOW_DETAIL = 0.4     # the shadow caster (only its outline matters) ...
+SHADOW_TRIANGLES = 2000 # ... decimated to about this many triangles (the map has ~1 cm texels)
 LOD1_DETAIL = 0.5       # drawn when he is small on screen: half the triangles, the same silhouette
 _detail = 1.0
 
@@ -570,8 +571,10 @@ def top4(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return idx.astype(np.uint8), w
 
 
-def body_at(rig: Rig, detail: float) -> tuple[Part, np.ndarray, np.ndarray, np.ndarray]:
-    """The whole batsman at ``detail``: merged part, per-vertex gloss, top-4 joints and weights."""
+def body_at(rig: Rig, detail: float, decimate_to: int | None = None) -> tuple[Part, np.ndarray, np.ndarray, np.ndarray]:
+    """The whole batsman at ``detail``: merged part, per-vertex gloss, top-4 joints and weights.
+    With ``decimate_to``, the body (not the bat: thin, it would collapse) is simplified to
+    about that many triangles."""
     global _detail
     previous, _detail = _detail, float(detail)
     try:
@@ -580,8 +583,14 @@ def body_at(rig: Rig, detail: float) -> tuple[Part, np.ndarray, np.ndarray, np.n
         parts = torso(rig, W) + helmet(W)
         for L, s in (("Left", 1), ("Right", -1)):
             parts += arm(W, L, s) + leg(W, L, s)
-        parts += bat(rig, W, bind)
-        body, gloss = merge(parts)
+        bat_parts = bat(rig, W, bind)
+        if decimate_to is None:
+            body, gloss = merge(parts + bat_parts)
+        else:
+            body, gloss = decimated(*merge(parts), decimate_to)
+            bat_body, bat_gloss = merge(bat_parts)
+            body, gloss = merge([body, bat_body]), np.concatenate([gloss, bat_gloss])
+            body = body[0]
     finally:
         _detail = previous
     joints, weights = top4(body.weights)
@@ -596,10 +605,36 @@ def build(rig: Rig | None = None, detail: float = BODY_DETAIL, shadow_detail: fl
     model = {"body": body, "body_gloss": gloss, "joints": joints, "weights": weights,
              "ball": ballp, "ball_gloss": ball_gloss, "bind": bind_positions(rig.skeleton), "rig": rig}
     if shadow_detail is not None:
-        model["shadow"], model["shadow_gloss"], model["shadow_joints"], model["shadow_weights"] = body_at(rig, shadow_detail)
+        model["shadow"], model["shadow_gloss"], model["shadow_joints"], model["shadow_weights"] = \
+            body_at(rig, shadow_detail, decimate_to=SHADOW_TRIANGLES)
     if lod1_detail is not None:
         model["lod1"], model["lod1_gloss"], model["lod1_joints"], model["lod1_weights"] = body_at(rig, lod1_detail)
     return model
+
+
+def decimated(part: Part, gloss: np.ndarray, triangles: int) -> tuple[Part, np.ndarray]:
+    """``part`` (with dense weights) simplified (quadric error metric, fast-simplification)
+    to about ``triangles`` faces; each new vertex takes the colour, gloss and weights of the
+    nearest old one (the shadow caster: only its outline matters, and it moves with its bones)."""
+    import fast_simplification
+
+    reduction = max(0.0, 1.0 - triangles / len(part.faces))
+    verts, faces = fast_simplification.simplify(part.vertices.astype(np.float32),
+                                                part.faces.astype(np.int64), target_reduction=reduction)
+    used, faces = np.unique(faces, return_inverse=True)          # drop vertices no face uses
+    verts, faces = verts[used], faces.reshape(-1, 3)
+    d2 = ((verts[:, None, :].astype(float) - part.vertices[None]) ** 2).sum(-1)   # (V', V): a few million
+    nearest = d2.argmin(1)
+    normals = np.zeros_like(verts, dtype=float)
+    tri = verts[faces]
+    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    for k in range(3):
+        np.add.at(normals, faces[:, k], face_n)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.where(length > 1e-9, normals / np.maximum(length, 1e-12), part.normals[nearest])  # degenerate fans
+    out = Part(vertices=verts.astype(float), faces=faces.astype(np.int64), normals=normals,
+               colors=part.colors[nearest], gloss=0.0, weights=part.weights[nearest])
+    return out, gloss[nearest]
 
 
 # ----------------------------------------------------------------- glTF
