@@ -199,9 +199,12 @@ class _PosedBody:
     level about to be drawn (llvmpipe shades 4x4 pixel blocks, so a mesh whose triangles
     are a few pixels big costs several times its pixels: far away, the coarser level)."""
 
-    def __init__(self, ctx, skin_progs, num_joints, body_meshes, caster_mesh, lit_prog, depth_prog):
+    def __init__(self, ctx, skin_progs, num_joints, body_meshes, caster_mesh, lit_progs, depth_prog):
+        """``lit_progs``: per level, the program of its lit pass (the last one repeats);
+        the first is the pixel-lit program every level can also be drawn with."""
         self.bones = ctx.buffer(reserve=num_joints * 64)   # (J,4,4) float32: this body's bone block
-        self.levels = [_BodyLevel(ctx, skin_progs[True], m, lit_prog, depth_prog) for m in body_meshes]
+        self.levels = [_BodyLevel(ctx, skin_progs[True], m, lit_progs[min(i, len(lit_progs) - 1)], depth_prog,
+                                  lit_progs[0]) for i, m in enumerate(body_meshes)]
         self.caster = _Skinner(ctx, skin_progs[False], caster_mesh, False) if caster_mesh is not None else None
         if self.caster is not None:
             self.caster_ibo = ctx.buffer(np.ascontiguousarray(caster_mesh.indices, dtype="u4").tobytes())
@@ -221,6 +224,11 @@ class _PosedBody:
     @property
     def lit(self):
         return self.levels[self.level].lit
+
+    @property
+    def pixel(self):
+        """The current level drawn by the pixel-lit program (``lit.frag``)."""
+        return self.levels[self.level].pixel
 
     @property
     def shadow(self):
@@ -248,18 +256,20 @@ class _PosedBody:
 
 
 class _BodyLevel:
-    """One level of detail of the batsman: its skinner and the lit and depth VAOs over
-    the skinned buffer."""
+    """One level of detail of the batsman: its skinner and, over the skinned buffer, the
+    VAOs of its lit pass (``lit_prog``: pixel- or vertex-lit), of the pixel-lit program
+    (``pixel``: the ghost) and of the depth-only program."""
 
-    def __init__(self, ctx, skin_prog, mesh, lit_prog, depth_prog):
+    def __init__(self, ctx, skin_prog, mesh, lit_prog, depth_prog, pixel_prog=None):
         self.mesh = mesh
         self.skinner = _Skinner(ctx, skin_prog, mesh, True)
         self.static = [ctx.buffer(np.ascontiguousarray(a, dtype="f4").tobytes()) for a in (mesh.colors, mesh.gloss)]
         self.ibo = ctx.buffer(np.ascontiguousarray(mesh.indices, dtype="u4").tobytes())
         out = self.skinner.out
-        self.lit = _vao(ctx, lit_prog, [(out, "3f 3f", "in_pos", "in_normal"),
-                                        (self.static[0], "4f", "in_color"), (self.static[1], "1f", "in_gloss")],
-                        self.ibo)
+        attrs = [(out, "3f 3f", "in_pos", "in_normal"), (self.static[0], "4f", "in_color"),
+                 (self.static[1], "1f", "in_gloss")]
+        self.lit = _vao(ctx, lit_prog, attrs, self.ibo)
+        self.pixel = self.lit if pixel_prog in (None, lit_prog) else _vao(ctx, pixel_prog, attrs, self.ibo)
         self.depth = _vao(ctx, depth_prog, [(out, "3f 12x", "in_pos")], self.ibo)
 
 
@@ -276,6 +286,7 @@ class SceneRenderer:
         self.body_mesh, self.ball_mesh = meshes["Batsman"], meshes["Ball"]
 
         self.p_static = program(ctx, "static.vert", "lit.frag")
+        self.p_vertex_lit = program(ctx, "lit_vertex.vert", "vertex_color.frag")
         self.p_depth_static = program(ctx, "depth_static.vert", "depth.frag")
         self.p_ground = program(ctx, "ground.vert", "ground.frag")
         self.p_receiver = program(ctx, "receiver.vert", "receiver.frag")
@@ -292,10 +303,12 @@ class SceneRenderer:
         # the posed batsman; the coarse copy casts the shadow (a third of the triangles, the same outline)
         J = rig.skeleton.num_joints
         skin_progs = {n: _skin_program(ctx, J, n) for n in (True, False)}
-        self.posed = _PosedBody(ctx, skin_progs, J, self.body_levels, self.shadow_mesh,
-                                self.p_static, self.p_depth_static)
-        self.ghost_posed = _PosedBody(ctx, skin_progs, J, self.body_levels, None,
-                                      self.p_static, self.p_depth_static)
+        # the finest level pixel-lit, the coarser ones vertex-lit (lit_vertex.vert)
+        lit_progs = (self.p_static, self.p_vertex_lit)
+        self.posed = _PosedBody(ctx, skin_progs, J, self.body_levels, self.shadow_mesh, lit_progs,
+                                self.p_depth_static)
+        self.ghost_posed = _PosedBody(ctx, skin_progs, J, self.body_levels, None, lit_progs[:1],
+                                      self.p_depth_static)
         self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static)
         self.wickets_mesh = props.wickets()
         self.wickets = _MeshGPU(ctx, self.wickets_mesh, self.p_static, self.p_depth_static)
@@ -337,7 +350,7 @@ class SceneRenderer:
 
     # ------------------------------------------------------------------ setup
     def _static_setup(self):
-        for p in (self.p_static, self.p_ground, self.p_receiver):
+        for p in (self.p_static, self.p_vertex_lit, self.p_ground, self.p_receiver):
             for k, v in LIGHTING.items():
                 set_uniform(p, k, v)
             set_uniform(p, "u_shadow_texel", 1.0 / SHADOW_SIZE)   # receiver: set per use
@@ -345,7 +358,7 @@ class SceneRenderer:
         light, tint = ground_light()
         set_uniform(self.p_ground, "u_light", light)
         set_uniform(self.p_receiver, "u_shadow_tint", tint)
-        for p in (self.p_static,):
+        for p in (self.p_static, self.p_vertex_lit):
             set_uniform(p, "u_mode", 0)
             set_uniform(p, "u_alpha", 1.0)
             set_uniform(p, "u_tint", (1.0, 1.0, 1.0))
@@ -430,7 +443,7 @@ class SceneRenderer:
     # ------------------------------------------------------------------ passes
     def _frame_uniforms(self, vp, eye, light_vp, shadows: bool, shadow_tex) -> None:
         shadow_tex.use(0)
-        for p in (self.p_static, self.p_ground, self.p_receiver):
+        for p in (self.p_static, self.p_vertex_lit, self.p_ground, self.p_receiver):
             set_uniform(p, "u_view_proj", vp)
             set_uniform(p, "u_eye", eye)
             set_uniform(p, "u_light_vp", light_vp)
@@ -592,6 +605,7 @@ class SceneRenderer:
         set_uniform(self.p_static, "u_mode", 0)
         if view.skin_matrices is not None:
             self.posed.update(view.skin_matrices)
+            set_uniform(self.p_vertex_lit, "u_model", IDENTITY)
             set_uniform(self.p_static, "u_model", IDENTITY)
             self.posed.lit.render()
         if view.ball_position is not None:
