@@ -1,4 +1,5 @@
 #version 330
-// depth only (shadow map, ghost pre-pass)
+// Depth only (shadow maps, ghost pre-pass); where a coverage target is attached
+// (the batsman's shadow map) it marks the texels a caster covers.
 out vec4 f_color;
-void main() { f_color = vec4(0.0); }
+void main() { f_color = vec4(1.0); }

@@ -290,6 +290,7 @@ class SceneRenderer:
         self.p_depth_static = program(ctx, "depth_static.vert", "depth.frag")
         self.p_ground = program(ctx, "ground.vert", "ground.frag")
         self.p_receiver = program(ctx, "receiver.vert", "receiver.frag")
+        self.p_receiver_cov = program(ctx, "receiver.vert", "receiver_coverage.frag")
         self.p_sky = program(ctx, "sky.vert", "sky.frag")
         self.p_line = program(ctx, "line.vert", "line.frag", "line.geom")
         self.p_point = program(ctx, "line.vert", "point.frag", "point.geom")
@@ -324,11 +325,13 @@ class SceneRenderer:
                                                  (self.stadium_bufs[1], "3f", "in_color")])
         self.sky = ctx.vertex_array(self.p_sky, [])
 
-        self.shadow_tex, self.shadow_fbo = _shadow_target(ctx, SHADOW_SIZE)
+        self.shadow_tex, self.shadow_fbo = _shadow_target(ctx, SHADOW_SIZE, coverage=True)
+        self.shadow_coverage = self.shadow_fbo.color_attachments[0]
         self.static_shadow_tex, self.static_shadow_fbo = _shadow_target(ctx, STATIC_SHADOW_SIZE)
 
         self.receiver_buf = DynamicBuffer(ctx, 6 * 12)
         self.receiver = ctx.vertex_array(self.p_receiver, [(self.receiver_buf.buffer, "3f", "in_pos")])
+        self.receiver_cov = ctx.vertex_array(self.p_receiver_cov, [(self.receiver_buf.buffer, "3f", "in_pos")])
         self.line_buf = DynamicBuffer(ctx)
         self.point_buf = DynamicBuffer(ctx)
         self._overlay_vaos = {}
@@ -357,7 +360,8 @@ class SceneRenderer:
             set_uniform(p, "u_shadow_map", 0)
         light, tint = ground_light()
         set_uniform(self.p_ground, "u_light", light)
-        set_uniform(self.p_receiver, "u_shadow_tint", tint)
+        for p in (self.p_receiver, self.p_receiver_cov):
+            set_uniform(p, "u_shadow_tint", tint)
         for p in (self.p_static, self.p_vertex_lit):
             set_uniform(p, "u_mode", 0)
             set_uniform(p, "u_alpha", 1.0)
@@ -406,7 +410,7 @@ class SceneRenderer:
         ctx = self.ctx
         fbo.use()
         ctx.viewport = (0, 0, size, size)
-        fbo.clear(depth=1.0)
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.polygon_offset = (2.0, 4.0)
         set_uniform(self.p_depth_static, "u_view_proj", light_vp)
         set_uniform(self.p_depth_static, "u_model", IDENTITY)
@@ -420,21 +424,28 @@ class SceneRenderer:
             self.ball.depth.render()
         ctx.polygon_offset = (0.0, 0.0)
 
-    def _draw_receiver(self, quad: np.ndarray, shadow_tex, size: int) -> None:
+    def _draw_receiver(self, quad: np.ndarray, shadow_tex, size: int, coverage=None) -> None:
         """Multiply the ground by the shadow map inside ``quad`` (6 points on y = 0) only,
-        depth-tested so things standing on the ground (stumps) are not darkened."""
+        depth-tested so things standing on the ground (stumps) are not darkened. With a
+        ``coverage`` texture (the batsman's map) one bilinear tap of it, else 4 PCF taps."""
         import moderngl
 
         self.receiver_buf.update(np.asarray(quad, np.float32).tobytes())
         ctx = self.ctx
-        shadow_tex.use(0)
-        set_uniform(self.p_receiver, "u_shadow_texel", 1.0 / size)
+        if coverage is not None:
+            coverage.use(3)
+            set_uniform(self.p_receiver_cov, "u_coverage", 3)
+            vao = self.receiver_cov
+        else:
+            shadow_tex.use(0)
+            set_uniform(self.p_receiver, "u_shadow_texel", 1.0 / size)
+            vao = self.receiver
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.DST_COLOR, moderngl.ZERO
         ctx.depth_func = "<="
         ctx.depth_mask = False
         ctx.polygon_offset = (-1.0, -4.0)
-        self.receiver.render(vertices=6)
+        vao.render(vertices=6)
         ctx.polygon_offset = (0.0, 0.0)
         ctx.depth_mask = True
         ctx.depth_func = "<"
@@ -443,7 +454,7 @@ class SceneRenderer:
     # ------------------------------------------------------------------ passes
     def _frame_uniforms(self, vp, eye, light_vp, shadows: bool, shadow_tex) -> None:
         shadow_tex.use(0)
-        for p in (self.p_static, self.p_vertex_lit, self.p_ground, self.p_receiver):
+        for p in (self.p_static, self.p_vertex_lit, self.p_ground, self.p_receiver, self.p_receiver_cov):
             set_uniform(p, "u_view_proj", vp)
             set_uniform(p, "u_eye", eye)
             set_uniform(p, "u_light_vp", light_vp)
@@ -620,7 +631,7 @@ class SceneRenderer:
         ctx.disable(moderngl.CULL_FACE)
         if view.show_pitch and quad is not None:
             # after the opaque meshes: early-z skips the ground they cover
-            self._draw_receiver(quad, self.shadow_tex, SHADOW_SIZE)
+            self._draw_receiver(quad, self.shadow_tex, SHADOW_SIZE, self.shadow_coverage)
 
         # overlays and ghost (blended)
         ctx.enable(moderngl.BLEND)
@@ -830,11 +841,21 @@ class SceneRenderer:
         return self._offscreen[key]
 
 
-def _shadow_target(ctx, size: int):
+def _shadow_target(ctx, size: int, coverage: bool = False):
+    """A sun depth map (compare mode on) and its framebuffer; with ``coverage`` also an R8
+    colour target the casters mark (``_shadow_coverage`` reads it back by the fbo)."""
+    import moderngl
+
     tex = ctx.depth_texture((size, size))
     tex.compare_func = "<="
     tex.repeat_x = tex.repeat_y = False
-    return tex, ctx.framebuffer(depth_attachment=tex)
+    colour = []
+    if coverage:
+        cov = ctx.texture((size, size), 1)
+        cov.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        cov.repeat_x = cov.repeat_y = False
+        colour = [cov]
+    return tex, ctx.framebuffer(color_attachments=colour, depth_attachment=tex)
 
 
 def skinned_box_corners(skin_matrices: np.ndarray, boxes: np.ndarray) -> np.ndarray:
