@@ -8,7 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-PHASES = ("frame", "engine", "render", "ui", "compose")
+# frame: one loop iteration, start to start of the next (the frame before is shown or
+# waited for inside it: ``wait``); render and compose: submitting the scene and the UI.
+PHASES = ("frame", "engine", "render", "ui", "compose", "wait")
 
 
 class FrameStats:

@@ -18,6 +18,7 @@ from app import capture
 from app.camera import OrbitCamera
 from app.compose import BACKGROUND, Compositor
 from app.interaction import Interaction
+from app.render.gl import flush
 from app.panel import PANEL_WIDTH, draw_panel, load_pcpad
 from app.settings import ViewerSettings
 from app.state import AppState
@@ -68,6 +69,7 @@ class App:
         self._opaque_windows()
         self.frame_index = 0
         self._ui_generation = -1
+        self._in_flight = False          # a frame submitted but not yet shown / waited for
         self._last_time = time.perf_counter()
         self._frame_stamps: deque = deque()
         self._pending_screenshots: list[Path] = []
@@ -145,13 +147,18 @@ class App:
             self.frame_index += 1
             return
 
+        # Only now is the previous frame shown (or, headless, waited for): its
+        # rasterising on llvmpipe's worker threads overlapped this frame's input,
+        # UI and engine work on this thread.
+        self._finish_previous()
+        t_wait = time.perf_counter()
         comp = self.compositor
         scene_size = comp.resize(self.window.framebuffer_size, rects["viewport"], size,
                                  self.settings.render_scale)
         view = self._scene_view(scene_size)
         comp.draw_scene(scene_key(view) if view is not None else None,
                         lambda fbo: self.render_scene(fbo, view))
-        self.ctx.finish()  # honest render timing (llvmpipe otherwise works at the next sync)
+        flush()               # the scene rasterises while the UI's draws are planned
         t_render = time.perf_counter()
 
         if comp.frame_generation != self._ui_generation:     # a new frame: nothing of the UI in it
@@ -159,17 +166,30 @@ class App:
             self._ui_generation = comp.frame_generation
         self.gui.render(imgui.get_draw_data(), comp.frame, keep=rects["panel"])
         self._captures()
-        comp.present(self.window)
-        self.ctx.finish()
+        flush()
+        self._in_flight = True
         self.window.set_cursor(self.state.cursor)
         t_end = time.perf_counter()
 
         r = self.state.readouts
-        r.render_ms, r.frame_ms = (t_render - t_engine) * 1e3, (t_end - t0) * 1e3
+        r.render_ms, r.frame_ms = (t_end - t_engine) * 1e3, (t_end - t0) * 1e3
         r.fps = self._fps(t_end)
         self.stats.record(frame=r.frame_ms, ui=(t_ui - t0) * 1e3, engine=(t_engine - t_ui) * 1e3,
-                          render=r.render_ms, compose=(t_end - t_render) * 1e3)
+                          wait=(t_wait - t_engine) * 1e3, render=(t_render - t_wait) * 1e3,
+                          compose=(t_end - t_render) * 1e3)
         self.frame_index += 1
+
+    def _finish_previous(self) -> None:
+        """Show the last submitted frame (window) and wait until it is drawn."""
+        if not self._in_flight:
+            return
+        self._in_flight = False
+        self.compositor.present(self.window)
+        self.ctx.finish()
+
+    def finish_frame(self) -> None:
+        """Complete the frame in flight (before reading it back, or at the end of a run)."""
+        self._finish_previous()
 
     def _fps(self, now: float) -> float:
         """Frames per wall-clock second over the last second (headless too)."""

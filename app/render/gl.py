@@ -21,6 +21,30 @@ def program(ctx, vertex: str, fragment: str, geometry: str | None = None):
                        geometry_shader=shader_source(geometry) if geometry else None)
 
 
+_GL_FLUSH = []
+
+
+def flush() -> None:
+    """glFlush on the current context (moderngl has only finish): hands the commands
+    issued so far to the driver, so llvmpipe's worker threads start rasterising them
+    while this thread goes on. Through GLVND's libOpenGL, which dispatches to the
+    current context whether it is EGL or GLX; a no-op where that library is missing."""
+    if not _GL_FLUSH:
+        import ctypes
+        import ctypes.util
+        fn = None
+        for name in ("libOpenGL.so.0", ctypes.util.find_library("OpenGL"), "libGL.so.1"):
+            try:
+                fn = ctypes.CDLL(name).glFlush if name else None
+            except OSError:
+                continue
+            if fn is not None:
+                break
+        _GL_FLUSH.append(fn)
+    if _GL_FLUSH[0] is not None:
+        _GL_FLUSH[0]()
+
+
 def mat_bytes(m: np.ndarray) -> bytes:
     """Row-major (..., 4, 4) column-vector matrices as GLSL (column-major) bytes."""
     m = np.asarray(m, np.float32)
