@@ -65,35 +65,47 @@ def fly(position, velocity, duration: float = 3.0, dt: float = 1 / 120,
         radius: float = 3.6) -> np.ndarray:
     """Polyline ``(K,3)`` of a ball under gravity bouncing on the ground (y = radius),
     sampled every ``dt`` seconds. Each flight between bounces is a closed-form
-    parabola (the loop runs over bounces, never over samples); once a bounce is
-    too small to see, the ball rolls on."""
+    parabola: a scalar loop over bounces finds where each starts, one vectorised
+    pass samples them all; once a bounce is too small to see, the ball rolls on."""
     times = np.arange(int(np.ceil(duration / dt)) + 1) * dt
-    pts = np.empty((len(times), 3))
-    p = np.array(position, float)
-    v = np.array(velocity, float)
+    starts, origins, velocities, airborne = _bounces(position, velocity, duration, e_ground, friction, radius)
+    seg = np.searchsorted(starts, times, side="right") - 1              # (K,) parabola of each sample
+    tt = times - starts[seg]
+    pts = origins[seg] + tt[:, None] * velocities[seg]
+    pts[:, 1] = np.where(airborne[seg], pts[:, 1] - 0.5 * GRAVITY * tt * tt, radius)
+    return pts
+
+
+def _bounces(position, velocity, duration, e_ground, friction, radius):
+    """Start time ``(B,)``, start point ``(B,3)``, start velocity ``(B,3)`` of each piece
+    of the flight, and whether it is a parabola ``(B,)`` (else rolling or at rest)."""
+    p = [float(x) for x in position]
+    v = [float(x) for x in velocity]
     p[1] = max(p[1], radius)
+    starts, origins, velocities, airborne = [], [], [], []
     t0 = 0.0
     for _ in range(64):
         height = p[1] - radius
         t_land = (v[1] + np.sqrt(max(v[1] * v[1] + 2 * GRAVITY * height, 0.0))) / GRAVITY
-        rolling = t_land < 1e-3
-        sel = times >= t0 if rolling else (times >= t0) & (times < t0 + t_land)
-        tt = times[sel] - t0
-        pts[sel] = p + tt[:, None] * v
-        if rolling:
-            pts[sel, 1] = radius
+        starts.append(t0)
+        origins.append(list(p))
+        if t_land < 1e-3:                       # too small to see: rolls on along the ground
+            velocities.append([v[0], 0.0, v[2]])
+            airborne.append(False)
             break
-        pts[sel, 1] -= 0.5 * GRAVITY * tt * tt
-        p = p + t_land * v
-        p[1] = radius
-        v = np.array([v[0] * friction, -(v[1] - GRAVITY * t_land) * e_ground, v[2] * friction])
+        velocities.append(list(v))
+        airborne.append(True)
+        p = [p[0] + t_land * v[0], radius, p[2] + t_land * v[2]]
+        v = [v[0] * friction, -(v[1] - GRAVITY * t_land) * e_ground, v[2] * friction]
         t0 += t_land
         if t0 > duration:
             break
-    else:
-        rest = times >= t0
-        pts[rest] = p
-    return pts
+    else:                                       # out of bounces: it rests where it landed
+        starts.append(t0)
+        origins.append(list(p))
+        velocities.append([0.0, 0.0, 0.0])
+        airborne.append(False)
+    return np.array(starts), np.array(origins), np.array(velocities), np.array(airborne)
 
 
 def ball_after_impact(global_rotations, global_positions, bat_joint: int, hand_joint: int,
