@@ -154,6 +154,7 @@ def test_committed_glb_matches_the_script(body, meshes, rig):
     assert np.allclose(model["weights"], body.weights, atol=1e-6)
     assert np.array_equal(model["shadow"].faces, meshes["BatsmanShadow"].indices)
     assert np.array_equal(model["lod1"].faces, meshes["BatsmanLod1"].indices)
+    assert np.array_equal(model["lod2"].faces, meshes["BatsmanLod2"].indices)
 
 
 def test_unknown_skin_joint_is_a_clear_error(tmp_path, rig):
@@ -167,10 +168,10 @@ def test_unknown_skin_joint_is_a_clear_error(tmp_path, rig):
         load_glb(path, rig)
 
 
-@pytest.mark.parametrize("name, share", [("BatsmanShadow", 0.5), ("BatsmanLod1", 0.55)])
+@pytest.mark.parametrize("name, share", [("BatsmanShadow", 0.5), ("BatsmanLod1", 0.55), ("BatsmanLod2", 0.35)])
 def test_coarse_copies_keep_skin_and_extent(body, meshes, rig, name, share):
-    """``BatsmanShadow`` (the shadow caster) and ``BatsmanLod1`` (drawn when he is small
-    on screen): the same skin, a fraction of the triangles, the same extent."""
+    """``BatsmanShadow`` (the shadow caster), ``BatsmanLod1`` and ``BatsmanLod2`` (drawn
+    when he is smaller on screen): the same skin, a fraction of the triangles, the same extent."""
     shadow = meshes[name]
     assert shadow.skin_joint_names == rig.skeleton.names
     assert shadow.num_triangles < body.num_triangles * share

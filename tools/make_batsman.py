@@ -65,7 +65,8 @@ class Part:
 BODY_DETAIL = 0.65      # the drawn mesh (~20k triangles: llvmpipe pays per triangle)
 SHADOW_DETAIL = 0.4     # the shadow caster (only its outline matters) ...
 SHADOW_TRIANGLES = 2000 # ... decimated to about this many triangles (the map has ~1 cm texels)
-LOD1_DETAIL = 0.5       # drawn when he is small on screen: half the triangles, the same silhouette
+LOD1_DETAIL = 0.5       # drawn when he is smaller on screen: half the triangles, the same silhouette
+LOD2_DETAIL = 0.3       # smaller still: a third of the triangles
 _detail = 1.0
 
 
@@ -598,7 +599,7 @@ def body_at(rig: Rig, detail: float, decimate_to: int | None = None) -> tuple[Pa
 
 
 def build(rig: Rig | None = None, detail: float = BODY_DETAIL, shadow_detail: float | None = SHADOW_DETAIL,
-          lod1_detail: float | None = LOD1_DETAIL) -> dict:
+          lod1_detail: float | None = LOD1_DETAIL, lod2_detail: float | None = LOD2_DETAIL) -> dict:
     rig = rig or default_rig()
     body, gloss, joints, weights = body_at(rig, detail)
     ballp, ball_gloss = ball(rig.ball_radius)
@@ -609,6 +610,8 @@ def build(rig: Rig | None = None, detail: float = BODY_DETAIL, shadow_detail: fl
             body_at(rig, shadow_detail, decimate_to=SHADOW_TRIANGLES)
     if lod1_detail is not None:
         model["lod1"], model["lod1_gloss"], model["lod1_joints"], model["lod1_weights"] = body_at(rig, lod1_detail)
+    if lod2_detail is not None:
+        model["lod2"], model["lod2_gloss"], model["lod2_joints"], model["lod2_weights"] = body_at(rig, lod2_detail)
     return model
 
 
@@ -677,7 +680,7 @@ def write_glb(model: dict, path: Path) -> None:
     body_prim = prim(model["body"], model["body_gloss"], model["joints"], model["weights"])
     ball_prim = prim(model["ball"], model["ball_gloss"])
     meshes = [g.Mesh(name="Batsman", primitives=[body_prim]), g.Mesh(name="Ball", primitives=[ball_prim])]
-    for key, name in (("shadow", "BatsmanShadow"), ("lod1", "BatsmanLod1")):
+    for key, name in (("shadow", "BatsmanShadow"), ("lod1", "BatsmanLod1"), ("lod2", "BatsmanLod2")):
         if key in model:
             meshes.append(g.Mesh(name=name, primitives=[
                 prim(model[key], model[f"{key}_gloss"], model[f"{key}_joints"], model[f"{key}_weights"])]))
@@ -731,6 +734,7 @@ def main() -> None:
     write_glb(model, out)
     print(f"wrote {out}: {len(model['body'].vertices)} vertices, {len(model['body'].faces)} triangles "
           f"(+ shadow caster {len(model['shadow'].faces)}, LOD1 {len(model['lod1'].faces)}, "
+          f"LOD2 {len(model['lod2'].faces)}, "
           f"ball {len(model['ball'].faces)})")
 
 

@@ -29,7 +29,7 @@ from . import props
 from .gl import DynamicBuffer, mat_bytes, program, set_uniform, shader_source
 
 IDENTITY = np.eye(4, dtype=np.float32)
-LOD_FULL_PX = 480          # the finest batsman from this screen height (px) up; below it the coarser
+LOD_MIN_PX = (520, 380)    # screen heights (px) from which levels 0, 1, ... are drawn; below: the last
 SHADOW_SIZE = 256          # the batsman's shadow map, fitted tightly around him (~1 cm a texel)
 STATIC_SHADOW_SIZE = 512    # the stumps' (drawn into the cached static layer)
 BACKGROUND = (0.60, 0.74, 0.90)
@@ -299,8 +299,12 @@ class SceneRenderer:
         self.shadow_mesh = meshes.get("BatsmanShadow")
         if self.shadow_mesh is not None and self.shadow_mesh.joints is None:
             self.shadow_mesh = None
-        lod1 = meshes.get("BatsmanLod1")
-        self.body_levels = [self.body_mesh] + ([lod1] if lod1 is not None and lod1.joints is not None else [])
+        self.body_levels = [self.body_mesh]        # finest first; a missing level ends the chain
+        for name in ("BatsmanLod1", "BatsmanLod2"):
+            level = meshes.get(name)
+            if level is None or level.joints is None:
+                break
+            self.body_levels.append(level)
         # the posed batsman; the coarse copy casts the shadow (a third of the triangles, the same outline)
         J = rig.skeleton.num_joints
         skin_progs = {n: _skin_program(ctx, J, n) for n in (True, False)}
@@ -647,8 +651,8 @@ class SceneRenderer:
         ctx.depth_func = "<"
 
     def _detail_level(self, view: SceneView, vp: np.ndarray) -> int:
-        """The batsman's level of detail for this frame: ``view.detail`` if set, else the
-        finest when his (and his ghost's) boxes stand ``LOD_FULL_PX`` or more tall on screen."""
+        """The batsman's level of detail for this frame: ``view.detail`` if set, else by how
+        tall his (and his ghost's) boxes stand on screen (``LOD_MIN_PX``)."""
         last = len(self.body_levels) - 1
         if view.detail is not None:
             return min(max(int(view.detail), 0), last)
@@ -660,7 +664,9 @@ class SceneRenderer:
         if np.any(clip[:, 3] <= 1e-3):
             return 0                                  # the camera is in among him: close up
         ndc_y = clip[:, 1] / clip[:, 3]
-        return 0 if (ndc_y.max() - ndc_y.min()) * 0.5 * view.size[1] >= LOD_FULL_PX else last
+        height_px = (ndc_y.max() - ndc_y.min()) * 0.5 * view.size[1]
+        level = next((i for i, px in enumerate(LOD_MIN_PX) if height_px >= px), len(LOD_MIN_PX))
+        return min(level, last)
 
     def _ghost_layer(self, view: SceneView, vp, eye):
         """The ghost's nearest surface (colour with alpha, depth) for this camera and pose, drawn
