@@ -314,10 +314,11 @@ class SceneRenderer:
                                 self.p_depth_static)
         self.ghost_posed = _PosedBody(ctx, skin_progs, J, self.body_levels, None, lit_progs[:1],
                                       self.p_depth_static)
-        self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static)
+        # the ball (a few pixels) and the flat target are vertex-lit like the distant batsman
+        self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_vertex_lit, self.p_depth_static)
         self.wickets_mesh = props.wickets()
         self.wickets = _MeshGPU(ctx, self.wickets_mesh, self.p_static, self.p_depth_static)
-        self.target = _MeshGPU(ctx, props.target_disc(), self.p_static, self.p_depth_static)
+        self.target = _MeshGPU(ctx, props.target_disc(), self.p_vertex_lit, self.p_depth_static)
 
         gpos, gcol = props.ground()
         self.ground_bufs = [ctx.buffer(gpos.astype("f4").tobytes()), ctx.buffer(gcol.astype("f4").tobytes())]
@@ -623,15 +624,16 @@ class SceneRenderer:
             set_uniform(self.p_vertex_lit, "u_model", IDENTITY)
             set_uniform(self.p_static, "u_model", IDENTITY)
             self.posed.lit.render()
+        # the ball (a few pixels) and the flat target: vertex-lit like the distant batsman
         if view.ball_position is not None:
-            set_uniform(self.p_static, "u_model", props.translation(view.ball_position))
+            set_uniform(self.p_vertex_lit, "u_model", props.translation(view.ball_position))
             self.ball.lit.render()
         if view.target_position is not None:
-            set_uniform(self.p_static, "u_model", props.target_model(view.target_position, view.target_normal))
+            set_uniform(self.p_vertex_lit, "u_model", props.target_model(view.target_position, view.target_normal))
             if view.target_highlight:
-                set_uniform(self.p_static, "u_emissive", (0.35, 0.30, 0.05))
+                set_uniform(self.p_vertex_lit, "u_emissive", (0.35, 0.30, 0.05))
             self.target.lit.render()
-            set_uniform(self.p_static, "u_emissive", (0.0, 0.0, 0.0))
+            set_uniform(self.p_vertex_lit, "u_emissive", (0.0, 0.0, 0.0))
         ctx.disable(moderngl.CULL_FACE)
         if view.show_pitch and quad is not None:
             # after the opaque meshes: early-z skips the ground they cover
