@@ -314,8 +314,9 @@ class SceneRenderer:
                                 self.p_depth_static)
         self.ghost_posed = _PosedBody(ctx, skin_progs, J, self.body_levels, None, lit_progs[:1],
                                       self.p_depth_static)
-        # the ball (a few pixels) and the flat target are vertex-lit like the distant batsman
-        self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_vertex_lit, self.p_depth_static)
+        # the ball stays pixel-lit (a sharp highlight over a few pixels); the flat target is
+        # vertex-lit like the distant batsman (its per-pixel shadow taps cost ~1 ms a frame)
+        self.ball = _MeshGPU(ctx, self.ball_mesh, self.p_static, self.p_depth_static)
         self.wickets_mesh = props.wickets()
         self.wickets = _MeshGPU(ctx, self.wickets_mesh, self.p_static, self.p_depth_static)
         self.target = _MeshGPU(ctx, props.target_disc(), self.p_vertex_lit, self.p_depth_static)
@@ -459,7 +460,8 @@ class SceneRenderer:
     # ------------------------------------------------------------------ passes
     def _frame_uniforms(self, vp, eye, light_vp, shadows: bool, shadow_tex) -> None:
         shadow_tex.use(0)
-        for p in (self.p_static, self.p_vertex_lit, self.p_ground, self.p_receiver, self.p_receiver_cov):
+        for p in (self.p_static, self.p_vertex_lit, self.p_ground, self.p_receiver,
+                  self.p_receiver_cov):
             set_uniform(p, "u_view_proj", vp)
             set_uniform(p, "u_eye", eye)
             set_uniform(p, "u_light_vp", light_vp)
@@ -624,9 +626,8 @@ class SceneRenderer:
             set_uniform(self.p_vertex_lit, "u_model", IDENTITY)
             set_uniform(self.p_static, "u_model", IDENTITY)
             self.posed.lit.render()
-        # the ball (a few pixels) and the flat target: vertex-lit like the distant batsman
         if view.ball_position is not None:
-            set_uniform(self.p_vertex_lit, "u_model", props.translation(view.ball_position))
+            set_uniform(self.p_static, "u_model", props.translation(view.ball_position))
             self.ball.lit.render()
         if view.target_position is not None:
             set_uniform(self.p_vertex_lit, "u_model", props.target_model(view.target_position, view.target_normal))
