@@ -145,25 +145,44 @@ def outside(keep: tuple, display: tuple) -> list[tuple]:
 def batches(geo: UiGeometry, rects: np.ndarray, regions: list[tuple]) -> tuple[np.ndarray, list[Batch]]:
     """The triangles to draw for ``regions``: an index array ``(K,) uint32`` and
     the batches drawing it, each scissored to (its command's clip) ∩ (its region)."""
-    chunks, out, first = [], [], 0
-    for rx0, ry0, rx1, ry1 in regions:
-        hit = np.flatnonzero((rects[:, 0] < rx1) & (rects[:, 2] > rx0) & (rects[:, 1] < ry1)
-                             & (rects[:, 3] > ry0) & (rects[:, 2] > rects[:, 0]) & (rects[:, 3] > rects[:, 1]))
-        if not len(hit):
-            continue
-        cmd = geo.tri_cmd[hit]
-        cuts = np.flatnonzero(np.diff(cmd)) + 1
-        for run in np.split(np.arange(len(hit)), cuts):
-            c = int(cmd[run[0]])
-            cx0, cy0, cx1, cy1 = geo.clips[c]
-            rect = (max(cx0, rx0), max(cy0, ry0), min(cx1, rx1), min(cy1, ry1))
-            if rect[2] <= rect[0] or rect[3] <= rect[1]:
-                continue
-            out.append(Batch(first, 3 * len(run), rect, int(geo.textures[c])))
-            first += 3 * len(run)
-            chunks.append(geo.indices[hit[run]].reshape(-1))
-    idx = np.concatenate(chunks).astype(np.uint32) if chunks else np.zeros(0, np.uint32)
+    if not regions:
+        return np.zeros(0, np.uint32), []
+    region_arr = np.asarray(regions, np.float32).reshape(-1, 4)
+    idx, runs = _select(rects, geo.tri_cmd.astype(np.int64), geo.indices, region_arr)
+    out = []
+    for first, count, c, r in runs:
+        cx0, cy0, cx1, cy1 = (float(v) for v in geo.clips[c])
+        rx0, ry0, rx1, ry1 = regions[r]
+        rect = (max(cx0, rx0), max(cy0, ry0), min(cx1, rx1), min(cy1, ry1))
+        if rect[2] > rect[0] and rect[3] > rect[1]:
+            out.append(Batch(int(first), int(count), rect, int(geo.textures[c])))
     return idx, out
+
+
+@njit(cache=True, nogil=True)
+def _select(rects, tri_cmd, indices, regions):
+    """Per region, the triangles touching it in draw order, cut into runs of one
+    command: the index array and rows (first index, index count, command, region)."""
+    T, R = rects.shape[0], regions.shape[0]
+    idx = np.empty(3 * T * R, np.uint32)
+    runs = np.empty((T * R, 4), np.int64)
+    n_idx = n_runs = 0
+    for r in range(R):
+        rx0, ry0, rx1, ry1 = regions[r, 0], regions[r, 1], regions[r, 2], regions[r, 3]
+        current = -1
+        for t in range(T):
+            x0, y0, x1, y1 = rects[t, 0], rects[t, 1], rects[t, 2], rects[t, 3]
+            if not (x0 < rx1 and x1 > rx0 and y0 < ry1 and y1 > ry0 and x1 > x0 and y1 > y0):
+                continue
+            if tri_cmd[t] != current:
+                current = tri_cmd[t]
+                runs[n_runs, 0], runs[n_runs, 1], runs[n_runs, 2], runs[n_runs, 3] = n_idx, 0, current, r
+                n_runs += 1
+            for k in range(3):
+                idx[n_idx + k] = indices[t, k]
+            n_idx += 3
+            runs[n_runs - 1, 1] += 3
+    return idx[:n_idx].copy(), runs[:n_runs].copy()
 
 
 class DamageTracker:
