@@ -22,10 +22,10 @@ def view(
     size: Annotated[Tuple[int, int], typer.Option("--size", help="Window size W H in pixels.")] = (1280, 720),
     headless: Annotated[bool, typer.Option("--headless", help="No window: an EGL context (or a hidden "
                                            "window, on a private Xvfb if there is no DISPLAY).")] = False,
-    frames: Annotated[int, typer.Option("--frames", help="Headless: frames to run (default: until the "
-                                        "script ends, min 60).")] = 0,
-    script: Annotated[Optional[Path], typer.Option("--script", help="Headless: JSON list of timed input "
-                                                   "events.")] = None,
+    frames: Annotated[int, typer.Option("--frames", help="Frames to run, then exit (default headless: "
+                                        "until the script ends, min 60; with a window: until closed).")] = 0,
+    script: Annotated[Optional[Path], typer.Option("--script", help="JSON list of timed input events "
+                                                   "(also in a window: benchmarks of the real present path).")] = None,
     screenshot: Annotated[Optional[Path], typer.Option("--screenshot", help="Write the last frame as PNG.")] = None,
     stats: Annotated[Optional[Path], typer.Option("--stats", help="Write frame-time statistics as JSON.")] = None,
     library: Annotated[Optional[Path], typer.Option("--library", help="Shot library manifest "
@@ -36,8 +36,6 @@ def view(
     w, h = _parse_size(size)
     if frames < 0:
         raise UserError("--frames must be >= 0")
-    if not headless and (script or frames):
-        raise UserError("--script and --frames need --headless")
     player = None
     if script is not None:
         from app.script import ScriptPlayer, load_script
@@ -54,7 +52,7 @@ def view(
     except DisplayError as e:
         raise UserError(str(e)) from None
     try:
-        if headless:
+        if headless or frames or player is not None:
             run_headless(app, frames, player)
         else:
             app.run()
@@ -75,11 +73,15 @@ def view(
 
 
 def run_headless(app, frames: int, player=None) -> None:
+    """A fixed number of frames at a fixed 60 Hz step (also in a window, which closing ends early)."""
     n = frames or max((player.last_frame + 2) if player is not None else 0, 60)
     for i in range(n):
         if player is not None:
             player.apply(app, i)
         app.frame(dt=HEADLESS_DT)
+        if app.window.should_close():
+            break
+    app.finish_frame()
 
 
 def _parse_size(size) -> tuple[int, int]:

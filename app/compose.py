@@ -23,6 +23,11 @@ _BLIT_FS = """
 uniform sampler2D tex; in vec2 uv; out vec4 color;
 void main() { color = vec4(texture(tex, uv).rgb, 1.0); }
 """
+_PRESENT_FS = """
+#version 330
+uniform sampler2D tex; out vec4 color;
+void main() { color = texelFetch(tex, ivec2(gl_FragCoord.xy), 0); }
+"""
 BACKGROUND = (0.11, 0.12, 0.14, 1.0)
 
 
@@ -48,6 +53,8 @@ class Compositor:
         prog = ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_BLIT_FS)
         quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
         self._blit = ctx.vertex_array(prog, [(quad, "2f", "in_pos")])
+        present = ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_PRESENT_FS)
+        self._present = ctx.vertex_array(present, [(quad, "2f", "in_pos")])
 
     def resize(self, frame_size: tuple[int, int], viewport, window_size, scale: float) -> tuple[int, int]:
         """Fit the framebuffers to the window; returns the scene's pixel size."""
@@ -113,10 +120,17 @@ class Compositor:
         ctx.viewport = (0, 0, self.frame.width, self.frame.height)
 
     def present(self, window) -> None:
-        """Blit the frame to a visible window and swap (no-op headless)."""
+        """Draw the frame to a visible window and swap (no-op headless). A draw, not a
+        blit: the window's buffer has another pixel format, and llvmpipe's blit between
+        formats costs twice a textured full-window draw."""
         if window.glfw is None or not window.visible:
             return
-        self.ctx.copy_framebuffer(self.ctx.screen, self.frame)
+        ctx = self.ctx
+        ctx.screen.use()
+        ctx.viewport = (0, 0, self.frame.width, self.frame.height)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        self.frame.color_attachments[0].use(0)
+        self._present.render(moderngl.TRIANGLE_STRIP)
         window.swap()
 
     def release(self) -> None:
