@@ -75,3 +75,44 @@ def test_view_is_callable_without_arguments():
     for name, p in inspect.signature(view).parameters.items():
         assert p.default is not inspect.Parameter.empty, name
         assert not type(p.default).__name__.endswith("Info"), name
+
+
+def test_visible_window_presents_the_composed_frame(tmp_path):
+    """The real window (glfw on an Xvfb of its own): a scripted drag runs, and the
+    window's pixels are the composed frame (the present draw converts the format)."""
+    import shutil
+    if shutil.which("Xvfb") is None:
+        pytest.skip("no Xvfb")
+    code = r'''
+import json, sys, numpy as np
+from app.viewer import App
+from app.script import ScriptPlayer
+app = App((640, 400), headless=False)
+player = ScriptPlayer([{"type": "drag_target", "frame": 1, "to": [-30, 90, -60], "frames": 6}])
+for i in range(12):
+    player.apply(app, i)
+    app.frame(dt=1 / 60)
+app.finish_frame()
+screen = np.frombuffer(app.ctx.screen.read(components=3, alignment=1), np.uint8)
+screen = screen.reshape(app.window.framebuffer_size[1], app.window.framebuffer_size[0], 3)[::-1]
+frame = app.screenshot()
+print(json.dumps({"diff": int(np.abs(screen.astype(int) - frame).max()), "errors": app.state.errors,
+                  "lit": float((frame.astype(int).sum(2) > 60).mean()), "solves": app.state.solve_count}))
+app.close()
+'''
+    display = ":%d" % (90 + os.getpid() % 500)
+    server = subprocess.Popen(["Xvfb", display, "-screen", "0", "800x600x24", "-nolisten", "tcp"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        import time
+        time.sleep(1.0)
+        env = dict(os.environ, DISPLAY=display)
+        r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+                           timeout=180)
+        assert r.returncode == 0, r.stderr[-2000:]
+        data = json.loads(r.stdout.strip().splitlines()[-1])
+        assert data["diff"] == 0 and data["errors"] == 0
+        assert data["lit"] > 0.5 and data["solves"] >= 3
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
