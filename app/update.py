@@ -144,6 +144,9 @@ def solve(state: AppState, settings: ViewerSettings) -> bool:
         state.readouts.engine_ms += ms
         state.readouts.solve_ms = ms
     if index != state.shot_index:
+        old = state.shot
+        if old is not None and not settings.playing and abs(settings.frame - old.hit_frame) < 1e-6:
+            settings.frame = float(state.shots[index].hit_frame)   # watching the hit: stay on it
         settings.frame = min(settings.frame, state.shots[index].num_frames - 1)
     state.shot_index, state.desired_hit_point, state.adaptation = index, desired, adaptation
     state.flight, state.flight_dt = flight, flight_dt

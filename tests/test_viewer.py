@@ -256,6 +256,31 @@ def test_ball_meets_the_bat_at_the_hit_frame(app):
     assert incoming[2] > before[2]
 
 
+def test_watching_the_hit_frame_follows_a_shot_switch(app):
+    """At a shot's hit frame, dragging the target onto another shot's ball line moves
+    the view to the new shot's hit frame, where bat and ball meet again."""
+    from app.update import default_target
+    s = app.state
+    names = [shot.name for shot in s.shots]
+    a, b = names.index("back_foot_defence"), names.index("square_cut")
+    assert s.shots[a].hit_frame != s.shots[b].hit_frame
+    app.settings.target = default_target(s, a)
+    run(app, 1)
+    assert s.shot_index == a
+    app.scrub(s.shot.hit_frame)
+    run(app, 1)
+    app.settings.target = default_target(s, b)
+    run(app, 1)
+    assert s.shot_index == b and app.settings.frame == s.shots[b].hit_frame
+    bat = s.pose.global_positions[s.rig.bat_joint]
+    assert np.linalg.norm(bat - s.ball_position) <= s.adaptation.bat_error_cm + 1e-6
+    # away from the hit frame the frame shown stays where it was
+    app.scrub(5)
+    app.settings.target = default_target(s, a)
+    run(app, 1)
+    assert s.shot_index == a and app.settings.frame == 5
+
+
 def test_f12_screenshot_and_frame_export(app, tmp_path, monkeypatch):
     from app.interaction import KEY_NAMES
     monkeypatch.chdir(tmp_path)
