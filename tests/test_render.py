@@ -325,3 +325,30 @@ def test_level_of_detail_follows_screen_size_and_keeps_the_silhouette(renderer, 
     for level in range(1, last + 1):
         union, inter = (masks[0] | masks[level]).sum(), (masks[0] & masks[level]).sum()
         assert union > 2000 and inter / union > 0.93, level
+
+
+def test_level_of_detail_does_not_flicker_at_a_threshold(renderer, rig):
+    """Zooming in and out across a level's threshold by less than the hysteresis keeps
+    the level; well past it, the level changes."""
+    from app.render import SceneView, look_at, perspective
+    from app.render.scene import LOD_HYSTERESIS
+    _, M = pose(rig, ARMS_DOWN)
+    if len(renderer.body_levels) < 2:
+        pytest.skip("no coarser levels in the mesh file")
+
+    def level(distance):
+        eye = np.array(TARGET) + (np.array(EYE) - np.array(TARGET)) * distance
+        v = SceneView(look_at(eye, TARGET), perspective(40.0, SIZE[0] / SIZE[1], 5.0, 12000.0), SIZE, M)
+        return renderer._detail_level(v, v.proj @ v.view)
+
+    # find a distance where the level changes, walking outwards
+    d = np.geomspace(0.15, 2.0, 200)
+    levels = [level(x) for x in d]
+    k = next(i for i in range(1, len(d)) if levels[i] != levels[i - 1])
+    edge = d[k]
+    near, far = levels[k - 1], levels[k]
+    assert far > near
+    small = 1 + LOD_HYSTERESIS / 3
+    flips = {level(edge / small), level(edge * small), level(edge / small), level(edge * small)}
+    assert flips == {far}                          # just past it, back and forth: no change
+    assert level(edge / (1 + 3 * LOD_HYSTERESIS)) == near   # well inside: the finer level again

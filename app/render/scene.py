@@ -31,6 +31,7 @@ from .gl import DynamicBuffer, mat_bytes, program, set_uniform, shader_source
 
 IDENTITY = np.eye(4, dtype=np.float32)
 LOD_MIN_PX = (520, 380)    # screen heights (px) from which levels 0, 1, ... are drawn; below: the last
+LOD_HYSTERESIS = 0.08      # a level changes only 8 % past a threshold (no flicker while he moves)
 SHADOW_SIZE = 256          # the batsman's shadow map, fitted tightly around him (~1 cm a texel)
 STATIC_SHADOW_SIZE = 512    # the stumps' (drawn into the cached static layer)
 BACKGROUND = (0.60, 0.74, 0.90)
@@ -345,6 +346,7 @@ class SceneRenderer:
         self._offscreen = {}
         self.ghost_vao = ctx.vertex_array(self.p_ghost, [])
         self._joint_boxes = joint_boxes(self.body_mesh, rig.skeleton.num_joints)
+        self._auto_level = 0        # the last level chosen by size (see _detail_level)
         self._static = _Layer()     # sky, ground, stadium, wickets for one camera and size
         self._ghost = _Layer()      # the translucent ghost's nearest surface (colour + depth)
         self._aa = _Layer()         # FXAA source: copies of the frame round what moves
@@ -669,8 +671,14 @@ class SceneRenderer:
             return 0                                  # the camera is in among him: close up
         ndc_y = clip[:, 1] / clip[:, 3]
         height_px = (ndc_y.max() - ndc_y.min()) * 0.5 * view.size[1]
-        level = next((i for i, px in enumerate(LOD_MIN_PX) if height_px >= px), len(LOD_MIN_PX))
-        return min(level, last)
+
+        def level_at(scale: float) -> int:
+            return min(next((i for i, px in enumerate(LOD_MIN_PX) if height_px >= px * scale),
+                            len(LOD_MIN_PX)), last)
+        # stay on the current level until the height is clearly past a threshold
+        level = min(max(self._auto_level, level_at(1 - LOD_HYSTERESIS)), level_at(1 + LOD_HYSTERESIS))
+        self._auto_level = level
+        return level
 
     def _ghost_layer(self, view: SceneView, vp, eye):
         """The ghost's nearest surface (colour with alpha, depth) for this camera and pose, drawn
