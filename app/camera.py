@@ -23,6 +23,7 @@ class OrbitCamera:
     fovy: float = 38.0
     near: float = 5.0
     far: float = 12000.0
+    _view_cache: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     def reset(self) -> None:
         fresh = OrbitCamera()
@@ -37,11 +38,9 @@ class OrbitCamera:
     def view(self) -> np.ndarray:
         """World->camera ``(4,4)``; remembered for the last pose (asked for several times a frame)."""
         key = (*np.asarray(self.pivot, float).tolist(), float(self.yaw), float(self.pitch), float(self.distance))
-        cached = self.__dict__.get("_view_cache")
-        if cached is None or cached[0] != key:
-            cached = (key, look_at(self.eye, self.pivot))
-            self.__dict__["_view_cache"] = cached
-        return cached[1].copy()
+        if self._view_cache is None or self._view_cache[0] != key:
+            self._view_cache = (key, look_at(self.eye, self.pivot))
+        return self._view_cache[1].copy()
 
     def proj(self, aspect: float) -> np.ndarray:
         return perspective(self.fovy, max(aspect, 1e-3), self.near, self.far)

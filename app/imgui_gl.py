@@ -48,9 +48,8 @@ class ImguiRenderer:
         # same text at a fraction of llvmpipe's cost for bilinear; lines are
         # antialiased with geometry, which does not need the filtered texture.
         self._filter = (moderngl.NEAREST, moderngl.NEAREST)
-        fonts = imgui.get_io().fonts
-        fonts.flags |= imgui.ImFontAtlasFlags_.no_baked_lines
         io = imgui.get_io()
+        io.fonts.flags |= imgui.ImFontAtlasFlags_.no_baked_lines
         io.backend_flags |= imgui.BackendFlags_.renderer_has_textures
         max_size = ctx.info["GL_MAX_TEXTURE_SIZE"]
         imgui.get_platform_io().renderer_texture_max_width = max_size

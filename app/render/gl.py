@@ -1,6 +1,7 @@
 """Small moderngl helpers: shader files with #include, dynamic buffers, matrices."""
 from __future__ import annotations
 
+import functools
 import re
 from pathlib import Path
 
@@ -21,28 +22,29 @@ def program(ctx, vertex: str, fragment: str, geometry: str | None = None):
                        geometry_shader=shader_source(geometry) if geometry else None)
 
 
-_GL_FLUSH = []
+@functools.cache
+def _gl_flush():
+    """glFlush from GLVND's libOpenGL (dispatches to the current context, EGL or GLX), or
+    libGL; None where neither loads."""
+    import ctypes
+    import ctypes.util
+    for name in ("libOpenGL.so.0", ctypes.util.find_library("OpenGL"), "libGL.so.1"):
+        if not name:
+            continue
+        try:
+            return ctypes.CDLL(name).glFlush
+        except (OSError, AttributeError):
+            continue
+    return None
 
 
 def flush() -> None:
     """glFlush on the current context (moderngl has only finish): hands the commands
     issued so far to the driver, so llvmpipe's worker threads start rasterising them
-    while this thread goes on. Through GLVND's libOpenGL, which dispatches to the
-    current context whether it is EGL or GLX; a no-op where that library is missing."""
-    if not _GL_FLUSH:
-        import ctypes
-        import ctypes.util
-        fn = None
-        for name in ("libOpenGL.so.0", ctypes.util.find_library("OpenGL"), "libGL.so.1"):
-            try:
-                fn = ctypes.CDLL(name).glFlush if name else None
-            except OSError:
-                continue
-            if fn is not None:
-                break
-        _GL_FLUSH.append(fn)
-    if _GL_FLUSH[0] is not None:
-        _GL_FLUSH[0]()
+    while this thread goes on; a no-op where no GL library exposes it."""
+    fn = _gl_flush()
+    if fn is not None:
+        fn()
 
 
 def mat_bytes(m: np.ndarray) -> bytes:

@@ -202,11 +202,10 @@ class _PosedBody:
     are a few pixels big costs several times its pixels: far away, the coarser level)."""
 
     def __init__(self, ctx, skin_progs, num_joints, body_meshes, caster_mesh, lit_progs, depth_prog):
-        """``lit_progs``: per level, the program of its lit pass (the last one repeats);
-        the first is the pixel-lit program every level can also be drawn with."""
+        """``lit_progs``: per level, the program of its lit pass (the last one repeats)."""
         self.bones = ctx.buffer(reserve=num_joints * 64)   # (J,4,4) float32: this body's bone block
-        self.levels = [_BodyLevel(ctx, skin_progs[True], m, lit_progs[min(i, len(lit_progs) - 1)], depth_prog,
-                                  lit_progs[0]) for i, m in enumerate(body_meshes)]
+        self.levels = [_BodyLevel(ctx, skin_progs[True], m, lit_progs[min(i, len(lit_progs) - 1)], depth_prog)
+                       for i, m in enumerate(body_meshes)]
         self.caster = _Skinner(ctx, skin_progs[False], caster_mesh, False) if caster_mesh is not None else None
         if self.caster is not None:
             self.caster_ibo = ctx.buffer(np.ascontiguousarray(caster_mesh.indices, dtype="u4").tobytes())
@@ -226,11 +225,6 @@ class _PosedBody:
     @property
     def lit(self):
         return self.levels[self.level].lit
-
-    @property
-    def pixel(self):
-        """The current level drawn by the pixel-lit program (``lit.frag``)."""
-        return self.levels[self.level].pixel
 
     @property
     def shadow(self):
@@ -259,10 +253,9 @@ class _PosedBody:
 
 class _BodyLevel:
     """One level of detail of the batsman: its skinner and, over the skinned buffer, the
-    VAOs of its lit pass (``lit_prog``: pixel- or vertex-lit), of the pixel-lit program
-    (``pixel``: the ghost) and of the depth-only program."""
+    VAOs of its lit pass (``lit_prog``: pixel- or vertex-lit) and of the depth-only program."""
 
-    def __init__(self, ctx, skin_prog, mesh, lit_prog, depth_prog, pixel_prog=None):
+    def __init__(self, ctx, skin_prog, mesh, lit_prog, depth_prog):
         self.mesh = mesh
         self.skinner = _Skinner(ctx, skin_prog, mesh, True)
         self.static = [ctx.buffer(np.ascontiguousarray(a, dtype="f4").tobytes()) for a in (mesh.colors, mesh.gloss)]
@@ -271,7 +264,6 @@ class _BodyLevel:
         attrs = [(out, "3f 3f", "in_pos", "in_normal"), (self.static[0], "4f", "in_color"),
                  (self.static[1], "1f", "in_gloss")]
         self.lit = _vao(ctx, lit_prog, attrs, self.ibo)
-        self.pixel = self.lit if pixel_prog in (None, lit_prog) else _vao(ctx, pixel_prog, attrs, self.ibo)
         self.depth = _vao(ctx, depth_prog, [(out, "3f 12x", "in_pos")], self.ibo)
 
 
@@ -861,7 +853,7 @@ class SceneRenderer:
 
 def _shadow_target(ctx, size: int, coverage: bool = False):
     """A sun depth map (compare mode on) and its framebuffer; with ``coverage`` also an R8
-    colour target the casters mark (``_shadow_coverage`` reads it back by the fbo)."""
+    colour target the casters mark (the ground under them reads it: ``receiver_coverage.frag``)."""
     import moderngl
 
     tex = ctx.depth_texture((size, size))
@@ -882,6 +874,7 @@ def skinned_box_corners(skin_matrices: np.ndarray, boxes: np.ndarray) -> np.ndar
 
 
 _SUN_ROTATION = np.ascontiguousarray(look_at(SUN_DIR, (0.0, 0.0, 0.0)).astype(float)[:3, :3])  # world -> sun axes
+_SUN_ROTATION_T = np.ascontiguousarray(_SUN_ROTATION.T)
 
 
 def fit_sun(points: np.ndarray, size: int, margin: float = 6.0) -> tuple[np.ndarray, np.ndarray]:
@@ -892,7 +885,7 @@ def fit_sun(points: np.ndarray, size: int, margin: float = 6.0) -> tuple[np.ndar
     the shadow's edges do not shimmer while the pose moves. Compiled: it runs every frame
     the pose moves, and on a few hundred points numpy's per-call overhead dominated."""
     vp, corners = _fit_sun(np.ascontiguousarray(points, float), float(size), float(margin),
-                           SUN_DIR, _SUN_ROTATION, np.ascontiguousarray(_SUN_ROTATION.T))
+                           SUN_DIR, _SUN_ROTATION, _SUN_ROTATION_T)
     return vp.astype(np.float32), corners[np.array([0, 1, 2, 0, 2, 3])].astype(np.float32)
 
 
