@@ -1,17 +1,20 @@
 """Frame composition: the 3D scene and the UI into one offscreen frame, then
 (with a window) one blit to the screen.
 
-The 3D viewport is the left part of the window, full height, so in GL
-coordinates it starts at the origin: at render scale 1 the renderer draws
-straight into the frame (no intermediate copy), and an unchanged scene is
-restored from a cached copy instead of being drawn again. At a lower render
-scale the scene goes to a smaller framebuffer that is stretched into place.
-The panel and timeline windows are opaque, so nothing needs clearing.
+The 3D viewport is the left part of the window above the timeline: at render
+scale 1 the renderer draws straight into the frame at the viewport's corner
+(no intermediate copy), and an unchanged scene is restored from a cached copy
+instead of being drawn again. At a lower render scale the scene goes to a
+smaller framebuffer that is stretched into place. The panel and timeline
+windows are opaque and the scene never draws under them, so nothing needs
+clearing.
 """
 from __future__ import annotations
 
 import moderngl
 import numpy as np
+
+from app.render.gl import copy_rect
 
 _BLIT_VS = """
 #version 330
@@ -70,7 +73,7 @@ class Compositor:
         k = fw / max(window_size[0], 1)        # framebuffer pixels per window pixel (HiDPI)
         x, y, w, h = (round(v * k) for v in viewport)
         self.viewport_px = (x, fh - y - h, max(w, 1), max(h, 1))
-        self.direct = scale >= 0.999 and self.viewport_px[:2] == (0, 0)
+        self.direct = scale >= 0.999
         size = self.viewport_px[2:] if self.direct else (max(round(w * scale), 1), max(round(h * scale), 1))
         target_attr = "cache" if self.direct else "scaled"
         target = getattr(self, target_attr)
@@ -82,6 +85,12 @@ class Compositor:
             setattr(self, target_attr, self.ctx.framebuffer([color], depth))
             self.invalidate()
         return tuple(size)
+
+    @property
+    def scene_origin(self) -> tuple[int, int]:
+        """Where the renderer draws the scene in the framebuffer it is given: at the
+        viewport's corner in the frame (scale 1), else at the origin of ``scaled``."""
+        return tuple(self.viewport_px[:2]) if self.direct else (0, 0)
 
     def invalidate(self) -> None:
         self.scene_key = None       # what the cache holds (direct) / what ``scaled`` holds
@@ -98,17 +107,18 @@ class Compositor:
         ctx = self.ctx
         if self.direct:
             if key is not None and key == self.scene_key:
-                ctx.copy_framebuffer(self.frame, self.cache)      # restore the unchanged scene
+                copy_rect(ctx, self.frame, self.cache, self.scene_origin)   # restore the unchanged scene
                 return
             repeat = key is not None and key == self.drawn_key
             self.drawn_key = None
             if render(self.frame):
                 self.drawn_key = key
                 if repeat:
-                    ctx.copy_framebuffer(self.cache, self.frame)  # keep it for idle frames
+                    copy_rect(ctx, self.cache, self.frame, src_origin=self.scene_origin,
+                              depth=False)                         # keep it for idle frames
                     self.scene_key = key
             elif self.scene_key is not None:
-                ctx.copy_framebuffer(self.frame, self.cache)      # the last cached good image
+                copy_rect(ctx, self.frame, self.cache, self.scene_origin)    # the last cached good image
             return
         if key is None or key != self.scene_key:
             self.scene_key = key if render(self.scaled) else None

@@ -118,8 +118,8 @@ class ScriptPlayer:
         n = max(int(e.get("frames", 10)), 1)
         memo: dict = {}
         self._grab_target(f, memo)
-        to_world = np.asarray(e["to"], float)[:3] if "to" in e else None
-        to_px = np.asarray(e["to_px"], float)[:2] if to_world is None else None
+        to_world = _vector(e["to"], 3, "to") if "to" in e else None
+        to_px = _vector(e["to_px"], 2, "to_px") if to_world is None and "to_px" in e else None
         if to_world is None and to_px is None:
             raise KeyError("to")
 
@@ -205,6 +205,14 @@ class ScriptPlayer:
                 app.extras.setdefault("export_formats", {})[str(Path(out))] = formats
             app.request_export(out)
         self._at(f, export)
+
+
+def _vector(v, n: int, name: str) -> np.ndarray:
+    """``v`` as ``n`` numbers, or ValueError naming the field."""
+    a = np.asarray(v, float).reshape(-1)
+    if a.shape != (n,):
+        raise ValueError(f"{name!r} needs {n} numbers, got {a.size}")
+    return a
 
 
 def _num(v) -> float:

@@ -31,14 +31,14 @@ from app.update import ball_at, default_target, load_library, pose_at, prewarm, 
 
 def layout(window_size: tuple[int, int]) -> dict[str, tuple]:
     """Rectangles ``(x, y, w, h)`` in window pixels (top-left origin): the panel
-    docked on the right, the 3D viewport everything left of it (never under
-    the panel), the timeline scrubber along the viewport's bottom edge."""
+    docked on the right, the timeline scrubber along the bottom left of it, the
+    3D viewport what remains above the timeline (never under either)."""
     W, H = max(int(window_size[0]), 1), max(int(window_size[1]), 1)
     panel_w = min(PANEL_WIDTH, max(W // 2, 1))
     timeline_h = min(TIMELINE_HEIGHT, max(H // 4, 1))
-    view_w = max(W - panel_w, 1)
-    return {"panel": (W - panel_w, 0, panel_w, H), "timeline": (0, H - timeline_h, view_w, timeline_h),
-            "viewport": (0, 0, view_w, H)}
+    view_w, view_h = max(W - panel_w, 1), max(H - timeline_h, 1)
+    return {"panel": (W - panel_w, 0, panel_w, H), "timeline": (0, view_h, view_w, H - view_h),
+            "viewport": (0, 0, view_w, view_h)}
 
 
 class App:
@@ -155,7 +155,7 @@ class App:
         comp = self.compositor
         scene_size = comp.resize(self.window.framebuffer_size, rects["viewport"], size,
                                  self.settings.render_scale)
-        view = self._scene_view(scene_size)
+        view = self._scene_view(scene_size, comp.scene_origin)
         comp.draw_scene(scene_key(view) if view is not None else None,
                         lambda fbo: self.render_scene(fbo, view))
         flush()               # the scene rasterises while the UI's draws are planned
@@ -214,22 +214,28 @@ class App:
         if pose is not None and np.isfinite(pose.global_positions).all():
             state.pose, state.pose_source = pose, "pc pad"
 
-    def _scene_view(self, size):
-        """This frame's SceneView, or None (no renderer, or it failed to build)."""
+    def _scene_view(self, size, origin=(0, 0)):
+        """This frame's SceneView for a view of ``size`` at ``origin`` (lower-left corner,
+        GL pixels) in the framebuffer drawn into, or None (no renderer, or it failed to build)."""
         if self.scene_renderer is None or self.state.rig is None:
             return None
         try:
-            return build_scene_view(self.state, self.settings, self.camera, size)
+            view = build_scene_view(self.state, self.settings, self.camera, size)
         except Exception as e:
             self.state.report(f"render: {type(e).__name__}: {e}")
             return None
+        view.origin = origin
+        return view
 
     def render_scene(self, fbo, view=None) -> bool:
-        """Draw ``view`` (default: this frame's, at the fbo's size) into ``fbo``
-        at its origin; on failure say why and return False (the last image stays)."""
+        """Draw ``view`` (default: this frame's, filling ``fbo``) into ``fbo`` at
+        ``view.origin``; on failure say why and return False (the last image stays)."""
         if self.scene_renderer is None or self.state.rig is None:
             fbo.use()
-            fbo.clear(*BACKGROUND)       # nothing to draw: an empty stage
+            comp = self.compositor
+            rect = ((*view.origin, *view.size) if view is not None else
+                    (*comp.scene_origin, *comp.viewport_px[2:]) if fbo is comp.frame else (0, 0, *fbo.size))
+            fbo.clear(*BACKGROUND, viewport=rect)       # nothing to draw: an empty stage
             return True
         view = view if view is not None else self._scene_view(fbo.size)
         if view is None:

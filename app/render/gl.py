@@ -23,16 +23,18 @@ def program(ctx, vertex: str, fragment: str, geometry: str | None = None):
 
 
 @functools.cache
-def _gl_flush():
-    """glFlush from GLVND's libOpenGL (dispatches to the current context, EGL or GLX), or
-    libGL; None where neither loads."""
+def _gl_library():
+    """GLVND's libOpenGL (dispatches to the current context, EGL or GLX), or libGL;
+    None where neither loads. For the few calls moderngl does not expose."""
     import ctypes
     import ctypes.util
     for name in ("libOpenGL.so.0", ctypes.util.find_library("OpenGL"), "libGL.so.1"):
         if not name:
             continue
         try:
-            return ctypes.CDLL(name).glFlush
+            lib = ctypes.CDLL(name)
+            lib.glFlush, lib.glBindFramebuffer, lib.glBlitFramebuffer   # all present, or skip it
+            return lib
         except (OSError, AttributeError):
             continue
     return None
@@ -42,9 +44,37 @@ def flush() -> None:
     """glFlush on the current context (moderngl has only finish): hands the commands
     issued so far to the driver, so llvmpipe's worker threads start rasterising them
     while this thread goes on; a no-op where no GL library exposes it."""
-    fn = _gl_flush()
-    if fn is not None:
-        fn()
+    lib = _gl_library()
+    if lib is not None:
+        lib.glFlush()
+
+
+_READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER = 0x8CA8, 0x8CA9
+_COLOR_BIT, _DEPTH_BIT, _NEAREST = 0x4000, 0x100, 0x2600
+
+
+def copy_rect(ctx, dst, src, dst_origin=(0, 0), src_origin=(0, 0), depth: bool = True) -> None:
+    """Copy a rectangle of framebuffer ``src`` from ``src_origin`` (lower-left corner, GL
+    pixels) into ``dst`` at ``dst_origin``: colour, and depth with ``depth``; as large as
+    the smaller framebuffer allows (moderngl's copy_framebuffer copies only origin to
+    origin). Leaves ``dst`` bound."""
+    (dx, dy), (sx, sy) = (int(v) for v in dst_origin), (int(v) for v in src_origin)
+    if (dx, dy, sx, sy) == (0, 0, 0, 0) and (depth or src.depth_attachment is None
+                                             or dst.depth_attachment is None):
+        ctx.copy_framebuffer(dst, src)
+        dst.use()
+        return
+    lib = _gl_library()
+    if lib is None:
+        raise RuntimeError("no GL library to copy a framebuffer region with")
+    w, h = min(src.width - sx, dst.width - dx), min(src.height - sy, dst.height - dy)
+    if w <= 0 or h <= 0:
+        return
+    lib.glBindFramebuffer(_READ_FRAMEBUFFER, src.glo)
+    lib.glBindFramebuffer(_DRAW_FRAMEBUFFER, dst.glo)
+    lib.glBlitFramebuffer(sx, sy, sx + w, sy + h, dx, dy, dx + w, dy + h,
+                          _COLOR_BIT | (_DEPTH_BIT if depth else 0), _NEAREST)
+    dst.use()      # moderngl binds its own framebuffer again (read and draw)
 
 
 def mat_bytes(m: np.ndarray) -> bytes:

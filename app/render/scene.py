@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from . import props
-from .gl import DynamicBuffer, mat_bytes, program, set_uniform, shader_source
+from .gl import DynamicBuffer, copy_rect, mat_bytes, program, set_uniform, shader_source
 
 IDENTITY = np.eye(4, dtype=np.float32)
 LOD_MIN_PX = (520, 380)    # screen heights (px) from which levels 0, 1, ... are drawn; below: the last
@@ -66,6 +66,7 @@ class SceneView:
     polylines: list = ()          # [(points (N,3), rgba, width_px)]
     show_pitch: bool = True
     # optional extras
+    origin: tuple[int, int] = (0, 0)  # lower-left corner of the view in the target (GL pixels)
     shadows: bool = True
     skeleton_width_px: float = 3.0
     skeleton_on_top: bool = True  # skeleton lines ignore depth (visible inside the mesh)
@@ -462,7 +463,7 @@ class SceneRenderer:
             set_uniform(p, "u_light_vp", light_vp)
             set_uniform(p, "u_shadow_on", 1.0 if shadows else 0.0)
 
-    def _draw_static(self, view: SceneView, fbo, vp, eye, shadows: bool) -> None:
+    def _draw_static(self, view: SceneView, fbo, vp, eye, shadows: bool, origin=(0, 0)) -> None:
         """Ground (painter's order) with the stumps' shadow, the stumps, stadium and sky into
         ``fbo`` (cleared first). The stumps' shadow map is drawn here too."""
         import moderngl
@@ -472,8 +473,8 @@ class SceneRenderer:
         if shadows:
             self._draw_shadow_map(self.static_shadow_fbo, STATIC_SHADOW_SIZE, light_vp, None, True)
         fbo.use()
-        ctx.viewport = (0, 0, *view.size)
-        fbo.clear(*BACKGROUND, 1.0, depth=1.0)
+        ctx.viewport = (*origin, *view.size)
+        fbo.clear(*BACKGROUND, 1.0, depth=1.0, viewport=ctx.viewport)
         self._frame_uniforms(vp, eye, light_vp, shadows, self.static_shadow_tex)
         if view.show_pitch:
             ctx.depth_func = "1"
@@ -545,10 +546,12 @@ class SceneRenderer:
             nbytes = box[2] * box[3] * 4
             if self._aa_pixels is None or self._aa_pixels.size < nbytes:
                 self._aa_pixels = ctx.buffer(reserve=max(nbytes, 1 << 20))
-            target.read_into(self._aa_pixels, viewport=box, components=4, alignment=1)
+            ox, oy = view.origin
+            target.read_into(self._aa_pixels, viewport=(box[0] + ox, box[1] + oy, box[2], box[3]),
+                             components=4, alignment=1)
             source.write(self._aa_pixels, viewport=box, alignment=1)
         target.use()
-        ctx.viewport = (0, 0, *size)
+        ctx.viewport = (*view.origin, *size)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         source.use(0)
         set_uniform(self.p_fxaa, "u_color", 0)
@@ -604,14 +607,13 @@ class SceneRenderer:
         static = self._static_layer(view, target_fbo, vp, eye, shadows, aa)
         ghost = self._ghost_layer(view, vp, eye) if static is not None else None
         if static is None:
-            self._draw_static(view, target_fbo, vp, eye, shadows)
+            self._draw_static(view, target_fbo, vp, eye, shadows, view.origin)
         light_vp, quad = self._update_shadow(view) if shadows else (self._static_fit[0], None)
 
         target_fbo.use()
-        ctx.viewport = (0, 0, w, h)
         if static is not None:
-            ctx.copy_framebuffer(target_fbo, static)
-            target_fbo.use()
+            copy_rect(ctx, target_fbo, static, view.origin)
+        ctx.viewport = (*view.origin, w, h)
         self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
         # every mesh is closed with outward winding (the helmet has a lining): cull back faces
         ctx.enable(moderngl.CULL_FACE)
@@ -640,7 +642,7 @@ class SceneRenderer:
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
         self._draw_overlays(view, vp, (w, h))
         if ghost is not None:
-            self._composite_ghost(ghost)
+            self._composite_ghost(ghost, view.origin)
         elif view.ghost_skin_matrices is not None and view.ghost_alpha > 0:
             ctx.enable(moderngl.CULL_FACE)
             self._draw_ghost(view, target_fbo)
@@ -711,7 +713,7 @@ class SceneRenderer:
             return None
         return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
-    def _composite_ghost(self, layer) -> None:
+    def _composite_ghost(self, layer, origin) -> None:
         """Blend the cached ghost over the frame where it is nearer than the scene."""
         import moderngl
 
@@ -723,6 +725,7 @@ class SceneRenderer:
         set_uniform(self.p_ghost, "u_ghost_color", 1)
         set_uniform(self.p_ghost, "u_ghost_depth", 2)
         set_uniform(self.p_ghost, "u_rect", layer.rect)
+        set_uniform(self.p_ghost, "u_origin", tuple(int(v) for v in origin))
         ctx.depth_func = "<"
         ctx.depth_mask = False
         self.ghost_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
