@@ -14,7 +14,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from app.render.gl import copy_rect
+from app.render.gl import can_copy_regions, copy_rect
 
 _BLIT_VS = """
 #version 330
@@ -73,7 +73,8 @@ class Compositor:
         k = fw / max(window_size[0], 1)        # framebuffer pixels per window pixel (HiDPI)
         x, y, w, h = (round(v * k) for v in viewport)
         self.viewport_px = (x, fh - y - h, max(w, 1), max(h, 1))
-        self.direct = scale >= 0.999
+        # straight into the frame at scale 1 (away from its origin only where GL can copy regions)
+        self.direct = scale >= 0.999 and (self.viewport_px[:2] == (0, 0) or can_copy_regions())
         size = self.viewport_px[2:] if self.direct else (max(round(w * scale), 1), max(round(h * scale), 1))
         target_attr = "cache" if self.direct else "scaled"
         target = getattr(self, target_attr)

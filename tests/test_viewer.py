@@ -339,3 +339,20 @@ def test_idle_frames_restore_the_scene_exactly_where_it_was_drawn(app):
     scene = app.screenshot()[vy:vy + vh, vx:vx + vw].astype(int)
     np.testing.assert_array_equal(scene, drawn[vy:vy + vh, vx:vx + vw])   # (the panel's readouts tick)
     assert (np.abs(scene - render_view(app)).max(-1) > 2).mean() < 1e-3   # ghost composited in place
+
+
+def test_without_region_copies_the_scene_still_lands_above_the_timeline(app, monkeypatch):
+    """Where GL cannot copy framebuffer regions, the scene goes through its own
+    framebuffer and is stretched into place: the same picture."""
+    import app.compose as compose
+    monkeypatch.setattr(compose, "can_copy_regions", lambda: False)
+    app.settings.overlays.ghost = "mesh"
+    run(app, 2)
+    app.finish_frame()
+    assert not app.compositor.direct
+    vx, vy, vw, vh = app.state.viewport
+    scene = app.screenshot()[vy:vy + vh, vx:vx + vw].astype(int)
+    assert (np.abs(scene - render_view(app)).max(-1) > 2).mean() < 1e-3
+    monkeypatch.undo()
+    run(app, 1)
+    assert app.compositor.direct

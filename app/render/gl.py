@@ -49,6 +49,11 @@ def flush() -> None:
         lib.glFlush()
 
 
+def can_copy_regions() -> bool:
+    """Can ``copy_rect`` copy to and from places other than the origin here?"""
+    return _gl_library() is not None
+
+
 _READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER = 0x8CA8, 0x8CA9
 _COLOR_BIT, _DEPTH_BIT, _NEAREST = 0x4000, 0x100, 0x2600
 
