@@ -33,7 +33,7 @@ def _gl_library():
             continue
         try:
             lib = ctypes.CDLL(name)
-            lib.glFlush, lib.glBindFramebuffer, lib.glBlitFramebuffer   # all present, or skip it
+            lib.glFlush          # present, or try the next library
             return lib
         except (OSError, AttributeError):
             continue
@@ -49,9 +49,11 @@ def flush() -> None:
         lib.glFlush()
 
 
+@functools.cache
 def can_copy_regions() -> bool:
     """Can ``copy_rect`` copy to and from places other than the origin here?"""
-    return _gl_library() is not None
+    lib = _gl_library()
+    return lib is not None and hasattr(lib, "glBindFramebuffer") and hasattr(lib, "glBlitFramebuffer")
 
 
 _READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER = 0x8CA8, 0x8CA9
@@ -69,9 +71,9 @@ def copy_rect(ctx, dst, src, dst_origin=(0, 0), src_origin=(0, 0), depth: bool =
         ctx.copy_framebuffer(dst, src)
         dst.use()
         return
-    lib = _gl_library()
-    if lib is None:
+    if not can_copy_regions():
         raise RuntimeError("no GL library to copy a framebuffer region with")
+    lib = _gl_library()
     w, h = min(src.width - sx, dst.width - dx), min(src.height - sy, dst.height - dy)
     if w <= 0 or h <= 0:
         return
