@@ -53,8 +53,9 @@ def hits_target(px, py, viewport, view, proj, target, radius: float = TARGET_RAD
 def clamp_target(p) -> np.ndarray:
     """Keep a target on its plane and inside ``TARGET_BOUNDS``."""
     p = np.asarray(p, float).copy()
-    p[0] = np.clip(p[0], *TARGET_BOUNDS[0])
-    p[1] = np.clip(p[1], *TARGET_BOUNDS[1])
+    for axis in (0, 1):         # scalar clamps: np.clip per scalar costs ~10x (every frame)
+        lo, hi = TARGET_BOUNDS[axis]
+        p[axis] = min(max(p[axis], lo), hi)
     p[2] = TARGET_PLANE_Z
     return p
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+from collections import OrderedDict
 
 import numpy as np
 
@@ -92,7 +93,23 @@ def scene_key(view) -> str:
     return h.hexdigest()
 
 
+_SKIN_CACHE: OrderedDict = OrderedDict()     # pose bytes -> skinning matrices; the last few
+
+
 def _skin(pose, state: AppState, skinning_matrices) -> np.ndarray | None:
+    """Skinning matrices ``(J,4,4)`` of ``pose``; the last few are remembered (while the
+    target is dragged the source pose stays the same frame after frame)."""
     if pose is None or state.bind_positions is None:
         return None       # nothing to pose (no library): the renderer draws no batsman
-    return skinning_matrices(pose.global_rotations, pose.global_positions, state.bind_positions)
+    key = b"".join(np.ascontiguousarray(a, float).tobytes() for a in (
+        pose.global_rotations, pose.global_positions, state.bind_positions))
+    m = _SKIN_CACHE.get(key)
+    if m is None:
+        m = skinning_matrices(pose.global_rotations, pose.global_positions, state.bind_positions)
+        m.flags.writeable = False          # shared between frames' views
+        _SKIN_CACHE[key] = m
+        while len(_SKIN_CACHE) > 4:
+            _SKIN_CACHE.popitem(last=False)
+    else:
+        _SKIN_CACHE.move_to_end(key)
+    return m

@@ -8,7 +8,10 @@ joint) — then flies under gravity and bounces on the ground with restitution.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from . import quat
 
@@ -67,13 +70,26 @@ def fly(position, velocity, duration: float = 3.0, dt: float = 1 / 120,
     sampled every ``dt`` seconds. Each flight between bounces is a closed-form
     parabola: a scalar loop over bounces finds where each starts, one vectorised
     pass samples them all; once a bounce is too small to see, the ball rolls on."""
-    times = np.arange(int(np.ceil(duration / dt)) + 1) * dt
+    count = int(np.ceil(duration / dt)) + 1
     starts, origins, velocities, airborne = _bounces(position, velocity, duration, e_ground, friction, radius)
-    seg = np.searchsorted(starts, times, side="right") - 1              # (K,) parabola of each sample
-    tt = times - starts[seg]
-    pts = origins[seg] + tt[:, None] * velocities[seg]
-    pts[:, 1] = np.where(airborne[seg], pts[:, 1] - 0.5 * GRAVITY * tt * tt, radius)
-    return pts
+    return _sample_pieces(starts, origins, velocities, airborne, float(dt), count, float(radius), GRAVITY)
+
+
+@njit(cache=True)
+def _sample_pieces(starts, origins, velocities, airborne, dt, count, radius, gravity):
+    """``count`` samples ``(K,3)`` every ``dt`` s of the pieces from ``_bounces``.
+    Compiled: it runs on every solve while the target is dragged."""
+    out = np.empty((count, 3))
+    seg = 0
+    for k in range(count):
+        t = k * dt
+        while seg + 1 < starts.shape[0] and starts[seg + 1] <= t:    # the piece this sample is on
+            seg += 1
+        tt = t - starts[seg]
+        for c in range(3):
+            out[k, c] = origins[seg, c] + tt * velocities[seg, c]
+        out[k, 1] = out[k, 1] - 0.5 * gravity * tt * tt if airborne[seg] else radius
+    return out
 
 
 def _bounces(position, velocity, duration, e_ground, friction, radius):
@@ -86,7 +102,7 @@ def _bounces(position, velocity, duration, e_ground, friction, radius):
     t0 = 0.0
     for _ in range(64):
         height = p[1] - radius
-        t_land = (v[1] + np.sqrt(max(v[1] * v[1] + 2 * GRAVITY * height, 0.0))) / GRAVITY
+        t_land = (v[1] + math.sqrt(max(v[1] * v[1] + 2 * GRAVITY * height, 0.0))) / GRAVITY
         starts.append(t0)
         origins.append(list(p))
         if t_land < 1e-3:                       # too small to see: rolls on along the ground

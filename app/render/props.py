@@ -5,6 +5,8 @@ the same layout as ``app.mesh.Mesh`` for the static program.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from app.mesh import Mesh
@@ -105,6 +107,14 @@ def target_disc(radius: float = 30.0, rings: int = 5, thickness: float = 1.5) ->
 
 def target_model(position, normal) -> np.ndarray:
     """Model matrix ``(4,4)`` placing the disc's +Z on ``normal`` at ``position``."""
+    m = _disc_axes(tuple(float(v) for v in np.ravel(normal))).copy()
+    m[:3, 3] = position
+    return m
+
+
+@functools.lru_cache(maxsize=8)
+def _disc_axes(normal: tuple) -> np.ndarray:
+    """Rotation part (4,4) of ``target_model``: the plane's normal is fixed, so it is built once."""
     z = np.asarray(normal, float)
     z = z / (np.linalg.norm(z) or 1.0)
     up = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.95 else np.array([1.0, 0.0, 0.0])
@@ -112,7 +122,7 @@ def target_model(position, normal) -> np.ndarray:
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z, position
+    m[:3, 0], m[:3, 1], m[:3, 2] = x, y, z
     return m.astype(np.float32)
 
 
