@@ -180,15 +180,15 @@ def _overlay_section(settings: ViewerSettings) -> None:
 
 def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
     imgui.separator_text("Readouts")
-    r = state.readouts
+    r, t = state.readouts, state.timing.shown     # timings: quarter-second means
     if imgui.begin_table("readouts", 2, imgui.TableFlags_.sizing_stretch_prop):
         rows = [("bat error at hit frame", f"{r.bat_error_cm:.3f} cm"),
                 ("grip error (this frame)", f"{r.grip_error_cm:.2f} cm  {r.grip_error_deg:.1f} deg"),
                 ("grip error (max)", f"{r.max_grip_error_cm:.2f} cm"),
-                ("engine this frame", f"{r.engine_ms:.2f} ms"),
-                ("last whole-shot solve", f"{r.solve_ms:.2f} ms"),
-                ("render", f"{r.render_ms:.2f} ms"),
-                ("frame", f"{r.frame_ms:.2f} ms  ({r.fps:.0f} fps)"),
+                ("engine per frame", f"{t.get('engine', r.engine_ms):.2f} ms"),
+                ("whole-shot solve", f"{t.get('solve', r.solve_ms):.2f} ms"),
+                ("render", f"{t.get('render', r.render_ms):.2f} ms"),
+                ("frame", f"{t.get('frame', r.frame_ms):.2f} ms  ({t.get('fps', r.fps):.0f} fps)"),
                 ("frame shown", f"{settings.frame:.2f} / {state.num_frames - 1}"),
                 ("viewport shows", "PC pad pose" if state.pose_source == "pc pad" else "adapted shot")]
         if state.desired_hit_point is not None:

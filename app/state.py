@@ -23,6 +23,31 @@ class Readouts:
     fps: float = 0.0
 
 
+TIMING_PERIOD_S = 0.25
+
+
+@dataclass
+class TimingDisplay:
+    """The timing readouts as a person can read them: means over the last quarter
+    second, refreshed four times a second. A number that changes every frame cannot
+    be read (and redraws its line of the panel every frame)."""
+    shown: dict = field(default_factory=dict)        # name -> mean over the last period
+    _sums: dict = field(default_factory=dict)
+    _count: int = 0
+    _since: float | None = None
+
+    def add(self, now: float, **values: float) -> None:
+        """One frame's values (seconds ``now`` on any monotonic clock)."""
+        for name, v in values.items():
+            self._sums[name] = self._sums.get(name, 0.0) + float(v)
+        self._count += 1
+        if self._since is None:
+            self._since = now
+        if not self.shown or now - self._since >= TIMING_PERIOD_S:
+            self.shown = {name: total / self._count for name, total in self._sums.items()}
+            self._sums, self._count, self._since = {}, 0, now
+
+
 @dataclass
 class Pose:
     """One frame of a skeleton in world space."""
@@ -57,6 +82,7 @@ class AppState:
     dragging_target: bool = False
     cursor: str = "arrow"
     readouts: Readouts = field(default_factory=Readouts)
+    timing: TimingDisplay = field(default_factory=TimingDisplay)
     messages: list = field(default_factory=list)      # [(time, text)] newest last
     errors: int = 0                                   # count of reported errors
     status: dict = field(default_factory=dict)        # piece -> "ok" / why it is missing

@@ -174,6 +174,8 @@ class App:
         r = self.state.readouts
         r.render_ms, r.frame_ms = (t_end - t_engine) * 1e3, (t_end - t0) * 1e3
         r.fps = self._fps(t_end)
+        self.state.timing.add(t_end, engine=r.engine_ms, solve=r.solve_ms, render=r.render_ms,
+                              frame=r.frame_ms, fps=r.fps)
         self.stats.record(frame=r.frame_ms, ui=(t_ui - t0) * 1e3, engine=(t_engine - t_ui) * 1e3,
                           wait=(t_wait - t_engine) * 1e3, render=(t_render - t_wait) * 1e3,
                           compose=(t_end - t_render) * 1e3)

@@ -356,3 +356,15 @@ def test_without_region_copies_the_scene_still_lands_above_the_timeline(app, mon
     monkeypatch.undo()
     run(app, 1)
     assert app.compositor.direct
+
+
+def test_timing_readouts_are_quarter_second_means():
+    from app.state import TIMING_PERIOD_S, TimingDisplay
+    t = TimingDisplay()
+    t.add(0.0, frame=10.0)
+    assert t.shown == {"frame": 10.0}            # something to show from the first frame
+    for k in range(1, 10):                        # within one period the shown value holds still
+        t.add(k * TIMING_PERIOD_S / 10, frame=20.0 + k)
+        assert t.shown == {"frame": 10.0}
+    t.add(TIMING_PERIOD_S, frame=30.0)           # then it is the mean of the period's frames
+    assert t.shown["frame"] == pytest.approx(np.mean([20.0 + k for k in range(1, 10)] + [30.0]))

@@ -690,13 +690,18 @@ class SceneRenderer:
             fbo = layer.framebuffer(ctx, tuple(view.size), 0, textures=True)
             fbo.use()
             ctx.viewport = (0, 0, *view.size)
-            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            layer.rect = self._screen_rect(ghost, vp)
+            # only the ghost's box is ever read (the composite covers layer.rect): clear
+            # and draw just there - a whole-viewport clear cost more than the ghost
+            box = _pixel_box(layer.rect, view.size, 2) if layer.rect is not None else None
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0, viewport=box)
+            ctx.scissor = box
             set_uniform(self.p_static, "u_view_proj", vp)
             set_uniform(self.p_static, "u_eye", eye)
             ctx.enable(moderngl.CULL_FACE)
             self._draw_ghost(view, fbo)
             ctx.disable(moderngl.CULL_FACE)
-            layer.rect = self._screen_rect(ghost, vp)
+            ctx.scissor = None
             layer.key = key
         return layer
 
