@@ -368,3 +368,10 @@ def test_timing_readouts_are_quarter_second_means():
         assert t.shown == {"frame": 10.0}
     t.add(TIMING_PERIOD_S, frame=30.0)           # then it is the mean of the period's frames
     assert t.shown["frame"] == pytest.approx(np.mean([20.0 + k for k in range(1, 10)] + [30.0]))
+
+
+def test_startup_objects_are_frozen_out_of_full_collections(app):
+    """The objects made while starting live as long as the window: a full garbage
+    collection (a ~120 ms stall mid-drag) must not walk them."""
+    import gc
+    assert gc.get_freeze_count() > 10_000
