@@ -53,6 +53,14 @@ class Compositor:
         self.drawn_key: str | None = None                 # direct: last scene drawn, uncached
         self.viewport_px = (0, 0, 1, 1)                   # GL pixels, bottom-left origin
         self.frame_generation = 0                         # bumped when ``frame`` is recreated
+        # what changed in ``frame`` since the last present (GL pixel rectangles), for windows
+        # that keep their back buffer: only that is drawn to the screen (a full-window draw
+        # costs ~6 ms on llvmpipe here)
+        self.damage = FrameDamage()
+        self._shown_key = None       # the scene whose image the frame holds (None: unknown)
+        self._shown_static = None    # and, if it was rendered over the static layer, (static key, changed box)
+        self._cache_static = None    # the same for the image in ``cache``
+        self.last_present = None     # the regions the last present drew (None: the whole frame)
         prog = ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_BLIT_FS)
         quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
         self._blit = ctx.vertex_array(prog, [(quad, "2f", "in_pos")])
@@ -69,6 +77,7 @@ class Compositor:
             self.frame.use()
             self.frame.clear(*BACKGROUND)
             self.frame_generation += 1
+            self.damage.everything()
             self.invalidate()
         k = fw / max(window_size[0], 1)        # framebuffer pixels per window pixel (HiDPI)
         x, y, w, h = (round(v * k) for v in viewport)
@@ -96,10 +105,13 @@ class Compositor:
     def invalidate(self) -> None:
         self.scene_key = None       # what the cache holds (direct) / what ``scaled`` holds
         self.drawn_key = None       # direct: the scene last drawn into the frame (not cached)
+        self._shown_key = self._shown_static = self._cache_static = None
 
-    def draw_scene(self, key: str | None, render) -> None:
+    def draw_scene(self, key: str | None, render, changed=lambda: None) -> None:
         """``render(fbo)`` draws the scene at origin into ``fbo``; skipped (the
-        cached image is used) when ``key`` equals the last one cached.
+        cached image is used) when ``key`` equals the last one cached. ``changed()``, asked
+        after a render, says what it drew over which static layer: (static key, changed box
+        in frame pixels or None) or None when unknown (see ``SceneRenderer._note_changed``).
 
         At scale 1 the scene is drawn straight into the frame, and copied into the
         cache only when a scene repeats (the first idle frame after a drag or a
@@ -109,18 +121,24 @@ class Compositor:
         if self.direct:
             if key is not None and key == self.scene_key:
                 copy_rect(ctx, self.frame, self.cache, self.scene_origin)   # restore the unchanged scene
+                self._showing(key, self._cache_static)
                 return
             repeat = key is not None and key == self.drawn_key
             self.drawn_key = None
             if render(self.frame):
                 self.drawn_key = key
+                self._showing(key, changed())
                 if repeat:
                     copy_rect(ctx, self.cache, self.frame, src_origin=self.scene_origin,
                               depth=False)                         # keep it for idle frames
-                    self.scene_key = key
+                    self.scene_key, self._cache_static = key, self._shown_static
             elif self.scene_key is not None:
                 copy_rect(ctx, self.frame, self.cache, self.scene_origin)    # the last cached good image
+                self._showing(self.scene_key, self._cache_static)
+            else:
+                self._showing(None, None)
             return
+        self.damage.add([self.viewport_px])          # stretched into place every frame
         if key is None or key != self.scene_key:
             self.scene_key = key if render(self.scaled) else None
         self.frame.use()
@@ -130,21 +148,97 @@ class Compositor:
         self._blit.render(moderngl.TRIANGLE_STRIP)
         ctx.viewport = (0, 0, self.frame.width, self.frame.height)
 
+    def _showing(self, key, static) -> None:
+        """The frame's scene region now holds the image of scene ``key`` (None: unknown),
+        rendered over ``static`` = (static layer key, changed box) (None: not known)."""
+        if key is None or key != self._shown_key:
+            old, new = self._shown_static, static
+            if old is not None and new is not None and old[0] is not None and old[0] == new[0]:
+                # both over the same static layer: only what was drawn over it differs
+                self.damage.add([c for c in (old[1], new[1]) if c is not None])
+            else:
+                self.damage.add([self.viewport_px])
+        self._shown_key, self._shown_static = key, static
+
     def present(self, window) -> None:
         """Draw the frame to a visible window and swap (no-op headless). A draw, not a
         blit: the window's buffer has another pixel format, and llvmpipe's blit between
-        formats costs twice a textured full-window draw."""
+        formats costs twice a textured full-window draw. Where the window keeps its back
+        buffer between swaps, only what changed since the last present is drawn."""
         if window.glfw is None or not window.visible:
+            self.damage.take(resolve=False)
             return
+        regions = self.damage.take()
+        if not getattr(window, "preserves_back_buffer", False):
+            regions = None
+        self.last_present = regions            # what the last present drew (None: everything)
         ctx = self.ctx
         ctx.screen.use()
         ctx.viewport = (0, 0, self.frame.width, self.frame.height)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         self.frame.color_attachments[0].use(0)
-        self._present.render(moderngl.TRIANGLE_STRIP)
+        if regions is None:
+            self._present.render(moderngl.TRIANGLE_STRIP)
+        else:
+            for rect in regions:
+                ctx.scissor = rect
+                self._present.render(moderngl.TRIANGLE_STRIP)
+            ctx.scissor = None
         window.swap()
 
     def release(self) -> None:
         for fbo in (self.frame, self.cache, self.scaled):
             _release(fbo)
         self.frame = self.cache = self.scaled = None
+
+
+class FrameDamage:
+    """Rectangles (x, y, w, h, GL pixels) of the frame that changed since the last present,
+    or objects whose ``box()`` gives one or None (``SceneRenderer.changed``: worked out only
+    if presented). ``take`` hands over those and the ones before them (what a frame drew
+    over - a popup over the scene - changes back in the next one), merged where close."""
+
+    def __init__(self):
+        self._now: list = []
+        self._before: list = []
+        self._all = True           # everything changed (a new frame)
+
+    def add(self, rects) -> None:
+        self._now.extend(rects)
+
+    def everything(self) -> None:
+        self._all = True
+
+    def take(self, resolve: bool = True) -> list | None:
+        """The regions to present (None: all of it); starts the next frame's list."""
+        regions = None
+        if resolve and not self._all:
+            boxes = [r.box() if hasattr(r, "box") else r for r in self._now + self._before]
+            regions = merge_rects([tuple(int(v) for v in b) for b in boxes if b is not None and b[2] > 0 and b[3] > 0])
+        self._before, self._now, self._all = self._now, [], False
+        return regions
+
+
+def merge_rects(rects: list, waste: int = 4096) -> list:
+    """Rectangles (x, y, w, h) merged into bounding boxes wherever the box of two covers at
+    most ``waste`` pixels more than they do (a few draws instead of many small ones, without
+    drawing much that did not change). Overlaps are drawn twice: the same pixels."""
+    def area(b):
+        return (b[2] - b[0]) * (b[3] - b[1])
+
+    boxes = [[x, y, x + w, y + h] for x, y, w, h in rects]
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(boxes)):
+            for j in range(i + 1, len(boxes)):
+                a, b = boxes[i], boxes[j]
+                box = [min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3])]
+                if area(box) <= area(a) + area(b) + waste:
+                    boxes[i] = box
+                    del boxes[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return [(x0, y0, x1 - x0, y1 - y0) for x0, y0, x1, y1 in boxes]

@@ -44,6 +44,7 @@ class ImguiRenderer:
         self.textures: dict[int, moderngl.Texture] = {}
         self._atlas_ids: set[int] = set()      # textures ImGui made (app textures keep their filter)
         self.damage = DamageTracker()
+        self.drawn_rects: list[tuple] = []     # (x, y, w, h) GL pixels the last render drew into
         # At 1:1 scale glyphs sit on whole pixels, so nearest sampling gives the
         # same text at a fraction of llvmpipe's cost for bilinear; lines are
         # antialiased with geometry, which does not need the filtered texture.
@@ -110,6 +111,7 @@ class ImguiRenderer:
         """Draw ``draw_data`` into ``fbo``. ``keep`` (x, y, w, h, display pixels) is
         a rectangle of ``fbo`` that nothing but the UI draws into: there only the
         bands that changed since the last call are redrawn (``app.ui_damage``)."""
+        self.drawn_rects = []
         if self._update_textures():
             self.damage.invalidate()
         width, height = draw_data.display_size
@@ -145,6 +147,11 @@ class ImguiRenderer:
                 if x1 <= x0 or y1 <= y0:
                     continue
                 self.ctx.scissor = (x0, fbo.height - y1, x1 - x0, y1 - y0)
+                bx0, by0, bx1, by1 = batch.bounds or batch.rect       # what its triangles touch
+                bx0, bx1 = max(int((bx0 - ox) * sx) - 1, x0), min(int(np.ceil((bx1 - ox) * sx)) + 1, x1)
+                by0, by1 = max(int((by0 - oy) * sy) - 1, y0), min(int(np.ceil((by1 - oy) * sy)) + 1, y1)
+                if bx1 > bx0 and by1 > by0:
+                    self.drawn_rects.append((bx0, fbo.height - by1, bx1 - bx0, by1 - by0))
                 tex = self.textures.get(batch.texture)
                 if tex is not None:
                     tex.use(0)

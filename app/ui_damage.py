@@ -52,6 +52,7 @@ class Batch:
     count: int
     rect: tuple
     texture: int
+    bounds: tuple = ()     # (x0, y0, x1, y1) what the triangles can touch inside ``rect``
 
 
 def triangle_rects(geo: UiGeometry) -> np.ndarray:
@@ -148,14 +149,16 @@ def batches(geo: UiGeometry, rects: np.ndarray, regions: list[tuple]) -> tuple[n
     if not regions:
         return np.zeros(0, np.uint32), []
     region_arr = np.asarray(regions, np.float32).reshape(-1, 4)
-    idx, runs = _select(rects, geo.tri_cmd.astype(np.int64), geo.indices, region_arr)
+    idx, runs, run_boxes = _select(rects, geo.tri_cmd.astype(np.int64), geo.indices, region_arr)
     out = []
-    for first, count, c, r in runs:
+    for (first, count, c, r), box in zip(runs, run_boxes):
         cx0, cy0, cx1, cy1 = (float(v) for v in geo.clips[c])
         rx0, ry0, rx1, ry1 = regions[r]
         rect = (max(cx0, rx0), max(cy0, ry0), min(cx1, rx1), min(cy1, ry1))
         if rect[2] > rect[0] and rect[3] > rect[1]:
-            out.append(Batch(int(first), int(count), rect, int(geo.textures[c])))
+            bounds = (max(rect[0], float(box[0])), max(rect[1], float(box[1])),
+                      min(rect[2], float(box[2])), min(rect[3], float(box[3])))
+            out.append(Batch(int(first), int(count), rect, int(geo.textures[c]), bounds))
     return idx, out
 
 
@@ -166,6 +169,7 @@ def _select(rects, tri_cmd, indices, regions):
     T, R = rects.shape[0], regions.shape[0]
     idx = np.empty(3 * T * R, np.uint32)
     runs = np.empty((T * R, 4), np.int64)
+    boxes = np.empty((T * R, 4), np.float32)       # per run: the box of its triangles
     n_idx = n_runs = 0
     for r in range(R):
         rx0, ry0, rx1, ry1 = regions[r, 0], regions[r, 1], regions[r, 2], regions[r, 3]
@@ -177,12 +181,15 @@ def _select(rects, tri_cmd, indices, regions):
             if tri_cmd[t] != current:
                 current = tri_cmd[t]
                 runs[n_runs, 0], runs[n_runs, 1], runs[n_runs, 2], runs[n_runs, 3] = n_idx, 0, current, r
+                boxes[n_runs, 0], boxes[n_runs, 1], boxes[n_runs, 2], boxes[n_runs, 3] = x0, y0, x1, y1
                 n_runs += 1
             for k in range(3):
                 idx[n_idx + k] = indices[t, k]
             n_idx += 3
             runs[n_runs - 1, 1] += 3
-    return idx[:n_idx].copy(), runs[:n_runs].copy()
+            b = boxes[n_runs - 1]
+            b[0], b[1], b[2], b[3] = min(b[0], x0), min(b[1], y0), max(b[2], x1), max(b[3], y1)
+    return idx[:n_idx].copy(), runs[:n_runs].copy(), boxes[:n_runs].copy()
 
 
 class DamageTracker:

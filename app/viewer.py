@@ -163,7 +163,7 @@ class App:
                                  self.settings.render_scale)
         view = self._scene_view(scene_size, comp.scene_origin)
         comp.draw_scene(scene_key(view) if view is not None else None,
-                        lambda fbo: self.render_scene(fbo, view))
+                        lambda fbo: self.render_scene(fbo, view), self._scene_changed)
         flush()               # the scene rasterises while the UI's draws are planned
         t_render = time.perf_counter()
 
@@ -171,6 +171,7 @@ class App:
             self.gui.invalidate()
             self._ui_generation = comp.frame_generation
         self.gui.render(imgui.get_draw_data(), comp.frame, keep=rects["panel"])
+        comp.damage.add(self.gui.drawn_rects)
         self._captures()
         flush()
         self._in_flight = True
@@ -234,6 +235,11 @@ class App:
             return None
         view.origin = origin
         return view
+
+    def _scene_changed(self):
+        """What the last scene render drew over which static layer (``Compositor.draw_scene``)."""
+        r = self.scene_renderer
+        return None if r is None else (r.static_key, r.changed)
 
     def render_scene(self, fbo, view=None) -> bool:
         """Draw ``view`` (default: this frame's, filling ``fbo``) into ``fbo`` at

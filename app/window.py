@@ -99,9 +99,25 @@ class Window:
         glfw.swap_interval(1 if visible else 0)
         self.ctx = moderngl.create_context()
         self.visible = visible
+        self.preserves_back_buffer = visible and self._keeps_back_buffer()
         self._cursors = {"arrow": None, "hand": glfw.create_standard_cursor(glfw.HAND_CURSOR),
                          "move": glfw.create_standard_cursor(glfw.RESIZE_ALL_CURSOR)}
         self._cursor = "arrow"
+
+    def _keeps_back_buffer(self) -> bool:
+        """Does the back buffer keep its pixels across a swap (software GL copies it to the
+        window; GPU drivers usually flip buffers)? Then a frame needs to draw only what
+        changed. Two swaps of two shades of the background, and a look at the back buffer."""
+        shades = ((0.11, 0.12, 0.14), (0.13, 0.12, 0.14))
+        try:
+            for r, g, b in shades:
+                self.ctx.screen.use()
+                self.ctx.screen.clear(r, g, b, 1.0)
+                self.swap()
+            pixel = self.ctx.screen.read(viewport=(0, 0, 1, 1), components=3)
+        except Exception:     # any doubt: present the whole frame every time
+            return False
+        return abs(pixel[0] - round(shades[1][0] * 255)) <= 1 and abs(pixel[0] - round(shades[0][0] * 255)) > 1
 
     @property
     def size(self) -> tuple[int, int]:

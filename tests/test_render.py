@@ -352,3 +352,79 @@ def test_level_of_detail_does_not_flicker_at_a_threshold(renderer, rig):
     flips = {level(edge / small), level(edge * small), level(edge / small), level(edge * small)}
     assert flips == {far}                          # just past it, back and forth: no change
     assert level(edge / (1 + 3 * LOD_HYSTERESIS)) == near   # well inside: the finer level again
+
+
+def _brute_rect(a, b, vp, n=4001):
+    """NDC box of the samples of segment a->b in front of GL's near plane and on screen."""
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    p = np.concatenate([a + t * (b - a), np.ones((n, 1))], 1) @ vp.astype(float).T
+    p = p[p[:, 2] + p[:, 3] >= 0]
+    ndc = p[:, :2] / p[:, 3:]
+    ndc = ndc[np.all(np.abs(ndc) <= 1.0, axis=1)]
+    return None if not len(ndc) else (*ndc.min(0), *ndc.max(0))
+
+
+def test_changed_region_of_lines_is_what_shows_of_them():
+    """A line's box is the part of it one sees: clipped to the near plane (the ball's path
+    from the bowler runs behind the eye) and to the screen; a solid through the near plane
+    may cover anything, one wholly behind it nothing."""
+    from app.render import look_at, perspective
+    from app.render.scene import _segments_rect
+    vp = perspective(38.0, 4 / 3, 5.0, 12000.0) @ look_at(EYE, TARGET)
+    rng = np.random.default_rng(7)
+    checked = 0
+    for _ in range(300):
+        a, b = rng.uniform(-2500, 2500, 3), rng.uniform(-2500, 2500, 3)
+        got, want = _segments_rect(a[None], b[None], vp), _brute_rect(a, b, vp)
+        if want is None:
+            continue
+        checked += 1
+        assert got is not None
+        assert got[0] <= want[0] + 1e-9 and got[1] <= want[1] + 1e-9
+        assert got[2] >= want[2] - 1e-9 and got[3] >= want[3] - 1e-9
+        clip = np.array([[*a, 1.0], [*b, 1.0]]) @ vp.astype(float).T
+        if np.all(clip[:, 2] + clip[:, 3] > 0):            # (sampling is too coarse near the plane)
+            assert np.allclose(got, want, atol=5e-3)      # and hardly more
+    assert checked > 50
+    behind = EYE + 2.0 * (EYE - TARGET)                   # well behind the camera
+    assert _segments_rect(behind[None], (behind + 10)[None], vp) is None
+    cube = np.array(np.meshgrid(*[[-1.0, 1.0]] * 3)).reshape(3, -1).T
+    assert _segments_rect(behind + 5 * cube, behind + 5 * cube, vp, filled=True) is None
+    through = EYE + 20.0 * cube                           # the camera inside a box
+    assert _segments_rect(through, through, vp, filled=True) == (-1.0, -1.0, 1.0, 1.0)
+
+
+def test_frame_damage_merges_and_remembers_the_last_frame():
+    from app.compose import FrameDamage, merge_rects
+    rng = np.random.default_rng(3)
+    rects = [tuple(int(v) for v in (*rng.integers(0, 600, 2), *rng.integers(1, 80, 2))) for _ in range(40)]
+    merged = merge_rects(rects)
+    assert 0 < len(merged) <= len(rects)
+    cover = np.zeros((700, 700), bool)
+    for x, y, w, h in merged:
+        cover[y:y + h, x:x + w] = True
+    for x, y, w, h in rects:                                # every changed pixel is presented
+        assert cover[y:y + h, x:x + w].all()
+    assert len(merge_rects([(0, 0, 10, 10), (500, 500, 10, 10)])) == 2   # far apart: two draws
+
+    class Lazy:
+        def __init__(self, box):
+            self.asked, self._box = 0, box
+
+        def box(self):
+            self.asked += 1
+            return self._box
+
+    d = FrameDamage()
+    assert d.take() is None                                 # a new frame: all of it
+    lazy = Lazy((5, 5, 10, 10))
+    d.add([(100, 100, 20, 20), lazy])
+    assert sorted(d.take()) == [(5, 5, 10, 10), (100, 100, 20, 20)]
+    d.add([(300, 300, 5, 5)])
+    assert sorted(d.take()) == [(5, 5, 10, 10), (100, 100, 20, 20), (300, 300, 5, 5)]   # and the last frame's
+    skipped = Lazy((1, 1, 1, 1))
+    d.add([skipped])
+    d.take(resolve=False)                                   # headless: nothing is worked out
+    assert skipped.asked == 0
+    d.everything()
+    assert d.take() is None

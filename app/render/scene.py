@@ -30,6 +30,7 @@ from . import props
 from .gl import DynamicBuffer, copy_rect, mat_bytes, program, set_uniform, shader_source
 
 IDENTITY = np.eye(4, dtype=np.float32)
+_CUBE = np.array(np.meshgrid(*[[-1.0, 1.0]] * 3)).reshape(3, -1).T     # (8,3) unit cube corners
 LOD_MIN_PX = (520, 380)    # screen heights (px) from which levels 0, 1, ... are drawn; below: the last
 LOD_HYSTERESIS = 0.08      # a level changes only 8 % past a threshold (no flicker while he moves)
 SHADOW_SIZE = 256          # the batsman's shadow map, fitted tightly around him (~1 cm a texel)
@@ -135,6 +136,69 @@ def _project_rect(points: np.ndarray, vp: np.ndarray) -> tuple | None:
     return None if np.any(hi <= lo) else (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
+def _segments_rect(starts: np.ndarray, ends: np.ndarray, vp: np.ndarray, filled: bool = False) -> tuple | None:
+    """NDC rectangle (x0, y0, x1, y1) holding what shows of the segments ``starts (N,3)`` ->
+    ``ends (N,3)`` (a point: start = end), or None when nothing does.
+
+    Lines are clipped to GL's near plane (the ball's path from the bowler runs behind the
+    eye and shows only up to it) and then to the screen (a long line's box is the part one
+    sees). ``filled``: the points span one solid (a box's corners): the box of all of them,
+    the whole screen when some lie behind the near plane, None when all do. Compiled: it
+    runs every frame."""
+    box = _ndc_box(np.ascontiguousarray(starts, float).reshape(-1, 3),
+                   np.ascontiguousarray(ends, float).reshape(-1, 3), vp.astype(float), filled)
+    return None if box[0] > box[2] else (float(box[0]), float(box[1]), float(box[2]), float(box[3]))
+
+
+@njit(cache=True)
+def _ndc_box(starts, ends, m, filled):
+    out = np.array([np.inf, np.inf, -np.inf, -np.inf])
+    a, b = np.empty(4), np.empty(4)
+    behind = 0
+    for i in range(starts.shape[0]):
+        for r in range(4):
+            a[r] = m[r, 0] * starts[i, 0] + m[r, 1] * starts[i, 1] + m[r, 2] * starts[i, 2] + m[r, 3]
+            b[r] = m[r, 0] * ends[i, 0] + m[r, 1] * ends[i, 1] + m[r, 2] * ends[i, 2] + m[r, 3]
+        da, db = a[2] + a[3], b[2] + b[3]           # >= 0 in front of the near plane
+        if filled and (da < 0 or db < 0):
+            behind += 1
+            continue
+        if da < 0 and db < 0:
+            continue
+        if da < 0 or db < 0:                        # cut at the plane
+            t = da / (da - db)
+            for r in range(4):
+                c = a[r] + t * (b[r] - a[r])
+                if da < 0:
+                    a[r] = c
+                else:
+                    b[r] = c
+        x0, y0 = a[0] / max(a[3], 1e-9), a[1] / max(a[3], 1e-9)
+        dx, dy = b[0] / max(b[3], 1e-9) - x0, b[1] / max(b[3], 1e-9) - y0
+        t0, t1 = 0.0, 1.0
+        if not filled:                              # Liang-Barsky against the screen's square
+            for p, d in ((x0, dx), (y0, dy)):
+                if abs(d) < 1e-12:
+                    if abs(p) > 1.0:
+                        t0, t1 = 1.0, 0.0
+                else:
+                    ta, tb = (-1.0 - p) / d, (1.0 - p) / d
+                    t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
+            if t0 > t1:
+                continue
+        for t in (t0, t1):
+            x, y = x0 + t * dx, y0 + t * dy
+            out[0], out[1] = min(out[0], x), min(out[1], y)
+            out[2], out[3] = max(out[2], x), max(out[3], y)
+    if behind and behind < starts.shape[0]:         # a solid through the plane: all of the screen
+        return np.array([-1.0, -1.0, 1.0, 1.0])
+    if out[0] > out[2]:
+        return out
+    for k in range(4):
+        out[k] = min(max(out[k], -1.0), 1.0)
+    return out
+
+
 def _pixel_box(rect, size, grow: int) -> tuple | None:
     """Pixel box (x, y, w, h) of an NDC rectangle, ``grow`` pixels wider, inside ``size``."""
     w, h = size
@@ -143,6 +207,45 @@ def _pixel_box(rect, size, grow: int) -> tuple | None:
     x1 = min(int(np.ceil((rect[2] + 1) * 0.5 * w)) + grow, w)
     y1 = min(int(np.ceil((rect[3] + 1) * 0.5 * h)) + grow, h)
     return (x0, y0, x1 - x0, y1 - y0) if x1 - x0 > 10 and y1 - y0 > 10 else None
+
+
+class ChangedRegion:
+    """What one render drew over its static layer: ``box()`` is (x, y, w, h) in target
+    pixels holding all of it, or None. Worked out only when asked (once): headless runs,
+    which present nothing, never ask."""
+
+    def __init__(self, size, origin, vp, skins, joint_boxes, solids, lines, points):
+        self._inputs = (size, origin, vp, skins, joint_boxes, solids, lines, points)
+        self._box = False
+
+    def box(self) -> tuple | None:
+        if self._box is not False:
+            return self._box
+        size, origin, vp, skins, joint_boxes, solids, lines, points = self._inputs
+        solids = solids + [skinned_box_corners(m, joint_boxes) for m in skins]   # batsman, ghost
+        rects = [_segments_rect(pts, pts, vp, filled=True) for pts in solids]
+        rects += [_segments_rect(lines[0::2, :3], lines[1::2, :3], vp),
+                  _segments_rect(points[:, :3], points[:, :3], vp)]
+        widest = float(max(lines[:, 7].max(initial=0.0), points[:, 7].max(initial=0.0)))
+        # 12 px at least: FXAA's boxes reach 9 px past what moves, a point's disc 6 px past its centre
+        box = _union_box([r for r in rects if r is not None], size, int(np.ceil(max(widest, 12.0))))
+        self._box = None if box is None else (box[0] + origin[0], box[1] + origin[1], *box[2:])
+        self._inputs = None
+        return self._box
+
+
+def _union_box(rects: list, size, grow: int) -> tuple | None:
+    """Pixel box (x, y, w, h) holding NDC rectangles ``rects``, ``grow`` pixels wider, inside
+    ``size``; None for no rectangles."""
+    if not rects:
+        return None
+    r = np.asarray(rects, float)
+    w, h = size
+    x0 = max(int(np.floor((r[:, 0].min() + 1) * 0.5 * w)) - grow, 0)
+    y0 = max(int(np.floor((r[:, 1].min() + 1) * 0.5 * h)) - grow, 0)
+    x1 = min(int(np.ceil((r[:, 2].max() + 1) * 0.5 * w)) + grow, w)
+    y1 = min(int(np.ceil((r[:, 3].max() + 1) * 0.5 * h)) + grow, h)
+    return (x0, y0, x1 - x0, y1 - y0) if x1 > x0 and y1 > y0 else None
 
 
 def _vao(ctx, prog, buffers, index_buffer=None):
@@ -351,6 +454,8 @@ class SceneRenderer:
         self._static_fit = fit_sun(near_stumps, STATIC_SHADOW_SIZE)   # the batting end's stumps
         self._shadow_fit = (self._static_fit[0], None)
         self._shadow_key = ()
+        self.static_key = None      # the static layer under the last render (None: drawn whole)
+        self.changed = None         # what it drew over it (ChangedRegion), see _note_changed
         self._static_setup()
 
     # ------------------------------------------------------------------ setup
@@ -640,7 +745,8 @@ class SceneRenderer:
         # overlays and ghost (blended)
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        self._draw_overlays(view, vp, (w, h))
+        overlay_lines, overlay_points = self._draw_overlays(view, vp, (w, h))
+        self._note_changed(view, vp, static, quad if view.show_pitch else None, overlay_lines, overlay_points)
         if ghost is not None:
             self._composite_ghost(ghost, view.origin)
         elif view.ghost_skin_matrices is not None and view.ghost_alpha > 0:
@@ -649,6 +755,18 @@ class SceneRenderer:
             ctx.disable(moderngl.CULL_FACE)
         ctx.disable(moderngl.BLEND)
         ctx.depth_func = "<"
+
+    def _note_changed(self, view: SceneView, vp, static, quad, lines, points) -> None:
+        """Remember which static layer this render drew over (``static_key``; None when the
+        scene was drawn whole) and what it drew over it (``changed``, a ``ChangedRegion``).
+        A window presents only what changed from frame to frame."""
+        self.static_key = self._static.key if static is not None else None
+        skins = [m for m in (view.skin_matrices, view.ghost_skin_matrices) if m is not None]
+        solids = [np.asarray(p, float) + r * _CUBE for p, r in ((view.ball_position, 4.0),
+                                                                (view.target_position, 32.0)) if p is not None]
+        if quad is not None:
+            solids.append(np.asarray(quad, float))                     # his shadow on the ground
+        self.changed = ChangedRegion(view.size, view.origin, vp, skins, self._joint_boxes, solids, lines, points)
 
     def _detail_level(self, view: SceneView, vp: np.ndarray) -> int:
         """The batsman's level of detail for this frame: ``view.detail`` if set, else by how
@@ -810,19 +928,21 @@ class SceneRenderer:
             self._overlay_vaos[key] = (dyn.generation, vao)
         return self._overlay_vaos[key][1]
 
-    def _draw_overlays(self, view: SceneView, vp: np.ndarray, size) -> None:
+    def _draw_overlays(self, view: SceneView, vp: np.ndarray, size) -> tuple:
+        """Draw the lines and points; returns their vertex rows (x, y, z, r, g, b, a, width):
+        lines ``(2N, 8)`` in pairs, points ``(M, 8)``."""
         import moderngl
 
         ctx = self.ctx
         tested, on_top = self._line_vertices(view)
         points = self._point_vertices(view)
         if not (len(tested) or len(on_top) or len(points)):
-            return
+            return tested, points
+        lines = np.concatenate([tested, on_top])
         for p in (self.p_line, self.p_point):
             set_uniform(p, "u_view_proj", vp)
             set_uniform(p, "u_viewport", (float(size[0]), float(size[1])))
         ctx.depth_mask = False
-        lines = np.concatenate([tested, on_top])
         if len(lines):
             self.line_buf.update(lines.tobytes())
             vao = self._overlay_vao("lines", self.p_line, self.line_buf)
@@ -844,6 +964,7 @@ class SceneRenderer:
                 vao.render(moderngl.POINTS, vertices=len(points) - n_user, first=n_user)
                 ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_mask = True
+        return lines, points
 
     # ------------------------------------------------------------------ offscreen
     def offscreen_targets(self, size: tuple[int, int], samples: int = 4):
