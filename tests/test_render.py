@@ -428,3 +428,38 @@ def test_frame_damage_merges_and_remembers_the_last_frame():
     assert skipped.asked == 0
     d.everything()
     assert d.take() is None
+
+
+def test_held_pose_is_kept_and_gives_the_same_pixels(renderer, rig):
+    """While the batsman holds a pose (the target dragged at a frame where he does not move)
+    the static scene with him and his shadow is kept after two renders and later ones draw
+    only what moves: the same pixels as drawing everything; a new pose, a ball that casts a
+    shadow on him, or a new camera are never served from it."""
+    from app.render import look_at
+
+    def fresh(v):
+        renderer._posed_layer.key = renderer._last_pose_key = None
+        image = render(renderer, v)
+        renderer._posed_layer.key = renderer._last_pose_key = None
+        return image
+
+    _, M = pose(rig, ARMS_DOWN)
+    _, M2 = pose(rig, dict(ARMS_DOWN, LeftArm=((0, 0, 1), 40)))
+    targets = [ROOT + (dx, 30.0, -150.0) for dx in (-40.0, 0.0, 40.0)]
+    views = [view_of(M, target_position=t, ball_position=ROOT + (300.0, 80.0, 2000.0)) for t in targets]
+    for v in views[:2]:
+        render(renderer, v)
+    assert renderer._posed_layer.key is not None                 # kept after the second
+    kept = render(renderer, views[2])
+    assert np.array_equal(kept, fresh(views[2]))
+    for v in views[:2]:
+        render(renderer, v)
+    others = [dataclasses.replace(views[2], skin_matrices=M2),
+              dataclasses.replace(views[2], ball_position=ROOT + (20.0, 120.0, 60.0)),   # near: casts
+              dataclasses.replace(views[2], view=look_at(EYE + np.array([0.0, 60.0, -120.0]), TARGET))]
+    for other in others:
+        got = render(renderer, other)
+        assert np.array_equal(got, fresh(other))
+        assert changed(got, kept).sum() > 20
+        for v in views[:2]:
+            render(renderer, v)

@@ -445,6 +445,8 @@ class SceneRenderer:
         self._auto_level = 0        # the last level chosen by size (see _detail_level)
         self._static = _Layer()     # sky, ground, stadium, wickets for one camera and size
         self._ghost = _Layer()      # the translucent ghost's nearest surface (colour + depth)
+        self._posed_layer = _Layer()  # the static layer with the batsman and his shadow, for one pose
+        self._last_pose_key = None
         self._aa = _Layer()         # FXAA source: copies of the frame round what moves
         self._aa_pixels = None      # the staging buffer for those copies
         self.p_fxaa = program(ctx, "fxaa.vert", "fxaa.frag")
@@ -454,6 +456,7 @@ class SceneRenderer:
         self._static_fit = fit_sun(near_stumps, STATIC_SHADOW_SIZE)   # the batting end's stumps
         self._shadow_fit = (self._static_fit[0], None)
         self._shadow_key = ()
+        self._shadow_ball = None    # the ball in the shadow map (None: it casts none)
         self.static_key = None      # the static layer under the last render (None: drawn whole)
         self.changed = None         # what it drew over it (ChangedRegion), see _note_changed
         self._static_setup()
@@ -485,25 +488,34 @@ class SceneRenderer:
         return np.einsum("jab,jb->ja", m[:, :3, :3], self.bind_positions) + m[:, :3, 3]
 
     # ------------------------------------------------------------------ shadows
-    def _caster_points(self, view: SceneView) -> np.ndarray:
+    def _casting_ball(self, view: SceneView, body: np.ndarray | None) -> np.ndarray | None:
+        """The ball's position if it casts a shadow (near the batsman, whose skinned box
+        corners are ``body``; anywhere when there is no batsman), else None."""
+        if view.ball_position is None:
+            return None
+        b = np.asarray(view.ball_position, float)
+        return b if body is None or np.linalg.norm(b - body.mean(0)) < 400 else None
+
+    def _caster_points(self, view: SceneView, ball) -> np.ndarray:
         """Points ``(N,3)`` bounding the dynamic shadow casters: the corners of the batsman's
-        skinned per-joint boxes and a box round the ball when it is near him."""
+        skinned per-joint boxes and a box round the casting ``ball`` (or None)."""
         pts = []
         if view.skin_matrices is not None:
             pts.append(skinned_box_corners(view.skin_matrices, self._joint_boxes))
-        if view.ball_position is not None:
-            b = np.asarray(view.ball_position, float)
-            if not pts or np.linalg.norm(b - pts[0].mean(0)) < 400:
-                pts.append(b + np.array(np.meshgrid(*[[-4.0, 4.0]] * 3)).reshape(3, -1).T)
+        if ball is not None:
+            pts.append(ball + 4.0 * _CUBE)
         return np.concatenate(pts) if pts else np.zeros((0, 3))
 
     def _update_shadow(self, view: SceneView):
         """The batsman's (and a near ball's) shadow map, redrawn only when the pose or the ball
         moved. Returns (light view-projection, ground quad ``(6,3)`` under the shadow or None)."""
+        body = None if view.skin_matrices is None else skinned_box_corners(view.skin_matrices, self._joint_boxes)
+        ball = self._casting_ball(view, body)
         key = (None if view.skin_matrices is None else np.asarray(view.skin_matrices, np.float32).tobytes(),
-               None if view.ball_position is None else np.asarray(view.ball_position, np.float32).tobytes())
+               None if ball is None else ball.astype(np.float32).tobytes())
         if key != self._shadow_key:
-            pts = self._caster_points(view)
+            self._shadow_ball = ball
+            pts = self._caster_points(view, ball)
             if len(pts):
                 self._shadow_fit = fit_sun(pts, SHADOW_SIZE)
             else:
@@ -526,8 +538,9 @@ class SceneRenderer:
             self.posed.shadow.render()
         if wickets:
             self.wickets.depth.render()
-        if view is not None and view.ball_position is not None:
-            set_uniform(self.p_depth_static, "u_model", props.translation(view.ball_position))
+        ball = self._shadow_ball if view is not None else None
+        if ball is not None:
+            set_uniform(self.p_depth_static, "u_model", props.translation(ball))
             self.ball.depth.render()
         ctx.polygon_offset = (0.0, 0.0)
 
@@ -716,18 +729,32 @@ class SceneRenderer:
         light_vp, quad = self._update_shadow(view) if shadows else (self._static_fit[0], None)
 
         target_fbo.use()
-        if static is not None:
-            copy_rect(ctx, target_fbo, static, view.origin)
-        ctx.viewport = (*view.origin, w, h)
-        self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
+        pose_key = None if static is None else (
+            self._static.key, None if view.skin_matrices is None else np.asarray(view.skin_matrices, np.float32).tobytes(),
+            self._shadow_key if shadows else None, self.posed.level, bool(view.show_pitch), shadows)
+        layer = self._posed_layer
+        if pose_key is not None and layer.key == pose_key:
+            copy_rect(ctx, target_fbo, layer.fbo, view.origin)    # static scene, batsman, his shadow
+            ctx.viewport = (*view.origin, w, h)
+            self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
+        else:
+            if static is not None:
+                copy_rect(ctx, target_fbo, static, view.origin)
+            ctx.viewport = (*view.origin, w, h)
+            self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
+            self._draw_batsman(view, quad)
+            if pose_key is not None and pose_key == self._last_pose_key:
+                # the same pose twice running (the target dragged at a frame where he holds still):
+                # keep this much for the frames after, which then draw only what moves
+                fbo = layer.framebuffer(ctx, (w, h), int(getattr(target_fbo, "samples", 0) or 0), textures=False)
+                copy_rect(ctx, fbo, target_fbo, src_origin=view.origin)
+                layer.key = pose_key
+                target_fbo.use()
+                ctx.viewport = (*view.origin, w, h)
+        self._last_pose_key = pose_key
         # every mesh is closed with outward winding (the helmet has a lining): cull back faces
         ctx.enable(moderngl.CULL_FACE)
         set_uniform(self.p_static, "u_mode", 0)
-        if view.skin_matrices is not None:
-            self.posed.update(view.skin_matrices)
-            set_uniform(self.p_vertex_lit, "u_model", IDENTITY)
-            set_uniform(self.p_static, "u_model", IDENTITY)
-            self.posed.lit.render()
         if view.ball_position is not None:
             set_uniform(self.p_static, "u_model", props.translation(view.ball_position))
             self.ball.lit.render()
@@ -738,9 +765,6 @@ class SceneRenderer:
             self.target.lit.render()
             set_uniform(self.p_vertex_lit, "u_emissive", (0.0, 0.0, 0.0))
         ctx.disable(moderngl.CULL_FACE)
-        if view.show_pitch and quad is not None:
-            # after the opaque meshes: early-z skips the ground they cover
-            self._draw_receiver(quad, self.shadow_tex, SHADOW_SIZE, self.shadow_coverage)
 
         # overlays and ghost (blended)
         ctx.enable(moderngl.BLEND)
@@ -755,6 +779,23 @@ class SceneRenderer:
             ctx.disable(moderngl.CULL_FACE)
         ctx.disable(moderngl.BLEND)
         ctx.depth_func = "<"
+
+    def _draw_batsman(self, view: SceneView, quad) -> None:
+        """The posed batsman and, over the ground, his shadow (the receiver quad ``quad``)."""
+        import moderngl
+
+        ctx = self.ctx
+        if view.skin_matrices is not None:
+            ctx.enable(moderngl.CULL_FACE)
+            set_uniform(self.p_static, "u_mode", 0)
+            self.posed.update(view.skin_matrices)
+            set_uniform(self.p_vertex_lit, "u_model", IDENTITY)
+            set_uniform(self.p_static, "u_model", IDENTITY)
+            self.posed.lit.render()
+            ctx.disable(moderngl.CULL_FACE)
+        if view.show_pitch and quad is not None:
+            # after him: early-z skips the ground he covers
+            self._draw_receiver(quad, self.shadow_tex, SHADOW_SIZE, self.shadow_coverage)
 
     def _note_changed(self, view: SceneView, vp, static, quad, lines, points) -> None:
         """Remember which static layer this render drew over (``static_key``; None when the
