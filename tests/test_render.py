@@ -463,3 +463,47 @@ def test_held_pose_is_kept_and_gives_the_same_pixels(renderer, rig):
         assert changed(got, kept).sum() > 20
         for v in views[:2]:
             render(renderer, v)
+
+
+def _ground_color_at(positions, colors, x, z):
+    """Colour of ground triangles (non-overlapping) at points ``x, z``, barycentric; NaN off them."""
+    tri_p, tri_c = positions.reshape(-1, 3, 3)[:, :, [0, 2]].astype(float), colors.reshape(-1, 3, 3).astype(float)
+    a, b, c = tri_p[:, 0], tri_p[:, 1], tri_p[:, 2]
+    p = np.stack([x, z], 1)[:, None, :]
+    v0, v1, v2 = b - a, c - a, p - a
+    den = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
+    s = (v2[..., 0] * v1[:, 1] - v1[:, 0] * v2[..., 1]) / den
+    t = (v0[:, 0] * v2[..., 1] - v2[..., 0] * v0[:, 1]) / den
+    inside = (s >= -1e-9) & (t >= -1e-9) & (s + t <= 1 + 1e-9)
+    hits = inside.sum(1)
+    k = inside.argmax(1)
+    s, t = s[np.arange(len(k)), k][:, None], t[np.arange(len(k)), k][:, None]
+    out = tri_c[k, 0] + s * (tri_c[k, 1] - tri_c[k, 0]) + t * (tri_c[k, 2] - tri_c[k, 0])
+    return out, hits
+
+
+def test_ground_cells_do_not_overlap_and_keep_the_painted_colours():
+    """The ground is drawn once per pixel (no overdraw), and every point of it has the
+    colour the painter's order of its layers gave it."""
+    from app.render import props
+    positions, colors = props.ground()
+    layers = props.ground_layers()
+    rng = np.random.default_rng(5)
+    near = np.stack([rng.uniform(-700, 700, 3000), rng.uniform(-400, props.PITCH_LENGTH + 400, 3000)], 1)
+    far = rng.uniform(-39000, 39000, (500, 2))
+    pts = np.concatenate([near, far])
+    got, hits = _ground_color_at(positions, colors, pts[:, 0], pts[:, 1])
+    painted = np.empty_like(got)
+    for layer in layers:                                    # painter's order: the last one wins
+        x0, x1, z0, z1, _ = layer
+        m = (pts[:, 0] > x0) & (pts[:, 0] < x1) & (pts[:, 1] > z0) & (pts[:, 1] < z1)
+        if m.any():
+            painted[m] = props.layer_color(layer, pts[m, 0], pts[m, 1])
+    on_edge = hits != 1                                     # exactly on a shared edge: two cells
+    assert on_edge.mean() < 0.01
+    assert np.abs(got - painted)[~on_edge].max() < 0.01    # sRGB 0-1: under 3 levels of 255
+    # no two triangles overlap: total area equals the area covered
+    tri = positions.reshape(-1, 3, 3)[:, :, [0, 2]].astype(float)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+    assert area == pytest.approx(80000.0 ** 2, rel=1e-6)

@@ -163,12 +163,14 @@ def crease_rects(z0: float, direction: float) -> list[tuple[float, float, float,
             (-132.0 - w, -132.0 + w, zlo - w, zhi + w), (132.0 - w, 132.0 + w, zlo - w, zhi + w)]
 
 
-def ground() -> tuple[np.ndarray, np.ndarray]:
-    """Ground triangles in painter's order (draw with depth func ALWAYS): outfield, mown stripes,
-    pitch strip with worn ends, creases. Returns positions (N,3) and sRGB colours (N,3)."""
-    quads = [_quad(-40000, 40000, -40000, 40000, GRASS)]
+def ground_layers() -> list[tuple]:
+    """The ground as rectangles in painter's order (each over the ones before): outfield, mown
+    stripes, pitch strip with worn ends, creases. Rows (x0, x1, z0, z1, colours (4,3) sRGB at
+    (x0,z0), (x1,z0), (x1,z1), (x0,z1)), interpolated over the triangles of ``_quad``."""
+    flat = lambda c: np.tile(np.asarray(c, float), (4, 1))
+    layers = [(-40000.0, 40000.0, -40000.0, 40000.0, flat(GRASS))]
     for x in np.arange(-6000.0, 6000.0, 600.0):
-        quads.append(_quad(x + 300.0, x + 600.0, -6000, 8000, GRASS_STRIPE))
+        layers.append((x + 300.0, x + 600.0, -6000.0, 8000.0, flat(GRASS_STRIPE)))
     L, hw = PITCH_LENGTH, PITCH_HALF_WIDTH
     # strip in bands along z so the worn areas in front of each crease blend smoothly
     zs = np.array([-PITCH_OVERRUN, 0, 60, 120, 200, 300, 420, 600, L - 600, L - 420, L - 300, L - 200,
@@ -179,12 +181,60 @@ def ground() -> tuple[np.ndarray, np.ndarray]:
     col = lambda zi, xi: np.asarray(PITCH) + (np.asarray(PITCH_WORN) - PITCH) * 0.7 * wear[zi] * xw[xi]
     for i in range(len(zs) - 1):
         for k in range(len(xs) - 1):
-            quads.append(_quad(xs[k], xs[k + 1], zs[i], zs[i + 1],
-                               [col(i, k), col(i, k + 1), col(i + 1, k + 1), col(i + 1, k)]))
+            layers.append((xs[k], xs[k + 1], zs[i], zs[i + 1],
+                           np.array([col(i, k), col(i, k + 1), col(i + 1, k + 1), col(i + 1, k)])))
     for z0, d in ((0.0, 1.0), (L, -1.0)):
         for x0, x1, za, zb in crease_rects(z0, d):
-            quads.append(_quad(x0, x1, za, zb, LINE))
-    return np.concatenate([q[0] for q in quads]), np.concatenate([q[1] for q in quads])
+            layers.append((x0, x1, za, zb, flat(LINE)))
+    return layers
+
+
+def layer_color(layer, x, z) -> np.ndarray:
+    """sRGB colour ``(N,3)`` of ``layer`` at ground points ``x, z (N,)`` inside it: linear over
+    each of its two triangles (split along (x0,z0)-(x1,z1)), as the rasteriser would."""
+    x0, x1, z0, z1, c = layer
+    u = (np.asarray(x, float) - x0) / (x1 - x0)
+    v = (np.asarray(z, float) - z0) / (z1 - z0)
+    u, v = u[:, None], v[:, None]
+    lower = c[0] + u * (c[1] - c[0]) + v * (c[2] - c[1])       # triangle (x0z0, x1z0, x1z1)
+    upper = c[0] + v * (c[3] - c[0]) + u * (c[2] - c[3])       # triangle (x0z0, x1z1, x0z1)
+    return np.where(u >= v, lower, upper)
+
+
+def ground() -> tuple[np.ndarray, np.ndarray]:
+    """Ground triangles ``ground_layers`` cut into cells that do not overlap: every pixel of
+    ground is shaded once (in painter's order the stripes, strip and creases drew over the
+    outfield 3-5 times, which made redrawing the static scene - orbiting - slow). Each cell
+    takes the colours of the topmost layer over it; runs of one flat colour along x are
+    merged. Returns positions (N,3) and sRGB colours (N,3)."""
+    layers = ground_layers()
+    xs = np.unique(np.concatenate([[l[0], l[1]] for l in layers]))
+    zs = np.unique(np.concatenate([[l[2], l[3]] for l in layers]))
+    xc, zc = 0.5 * (xs[:-1] + xs[1:]), 0.5 * (zs[:-1] + zs[1:])
+    owner = np.zeros((len(zc), len(xc)), int)
+    for i, (x0, x1, z0, z1, _) in enumerate(layers):
+        owner[np.ix_((zc > z0) & (zc < z1), (xc > x0) & (xc < x1))] = i
+    flat = [bool(np.all(l[4] == l[4][0])) for l in layers]
+    quads = []
+    for j in range(len(zc)):
+        k = 0
+        while k < len(xc):
+            i = owner[j, k]
+            end = k + 1
+            while flat[i] and end < len(xc) and owner[j, end] == i:
+                end += 1
+            x0, x1, z0, z1 = xs[k], xs[end], zs[j], zs[j + 1]
+            corners = np.tile(layers[i][4][0], (4, 1)) if flat[i] else layer_color(
+                layers[i], np.array([x0, x1, x1, x0]), np.array([z0, z0, z1, z1]))
+            quads.append((x0, x1, z0, z1, corners))
+            k = end
+    # all quads at once, as _quad lays them out: (x0z0, x1z0, x1z1), (x0z0, x1z1, x0z1)
+    q = np.array([r[:4] for r in quads])
+    x = q[:, [0, 1, 1, 0, 1, 0]]
+    z = q[:, [2, 2, 3, 2, 3, 3]]
+    positions = np.stack([x, np.zeros_like(x), z], -1).reshape(-1, 3).astype(np.float32)
+    colors = np.array([r[4] for r in quads])[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3).astype(np.float32)
+    return positions, colors
 
 
 # ----------------------------------------------------------------- stadium
