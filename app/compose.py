@@ -11,6 +11,8 @@ clearing.
 """
 from __future__ import annotations
 
+import time
+
 import moderngl
 import numpy as np
 
@@ -61,6 +63,7 @@ class Compositor:
         self._shown_static = None    # and, if it was rendered over the static layer, (static key, changed box)
         self._cache_static = None    # the same for the image in ``cache``
         self.last_present = None     # the regions the last present drew (None: the whole frame)
+        self._present_way = None     # _present_by_draw or _present_by_blit, chosen at the first present
         prog = ctx.program(vertex_shader=_BLIT_VS, fragment_shader=_BLIT_FS)
         quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], "f4").tobytes())
         self._blit = ctx.vertex_array(prog, [(quad, "2f", "in_pos")])
@@ -172,19 +175,41 @@ class Compositor:
         if not getattr(window, "preserves_back_buffer", False):
             regions = None
         self.last_present = regions            # what the last present drew (None: everything)
+        if self._present_way is None:
+            self._present_way = self._faster_present()
+        self._present_way([(0, 0, *self.frame.size)] if regions is None else regions)
+        window.swap()
+
+    def _present_by_draw(self, regions) -> None:
         ctx = self.ctx
         ctx.screen.use()
         ctx.viewport = (0, 0, self.frame.width, self.frame.height)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         self.frame.color_attachments[0].use(0)
-        if regions is None:
+        for rect in regions:
+            ctx.scissor = rect
             self._present.render(moderngl.TRIANGLE_STRIP)
-        else:
-            for rect in regions:
-                ctx.scissor = rect
-                self._present.render(moderngl.TRIANGLE_STRIP)
-            ctx.scissor = None
-        window.swap()
+        ctx.scissor = None
+
+    def _present_by_blit(self, regions) -> None:
+        for x, y, w, h in regions:
+            copy_rect(self.ctx, self.ctx.screen, self.frame, (x, y), (x, y), depth=False, size=(w, h))
+
+    def _faster_present(self):
+        """Which of a textured draw and a blit copies the frame to the window faster here
+        (llvmpipe converts the pixel format either way; which wins differs between machines):
+        each timed twice over the whole frame, once, before the first present."""
+        if not can_copy_regions():
+            return self._present_by_draw
+        whole = [(0, 0, *self.frame.size)]
+        best = {}
+        for way in (self._present_by_draw, self._present_by_blit) * 2:
+            self.ctx.finish()
+            t0 = time.perf_counter()
+            way(whole)
+            self.ctx.finish()
+            best[way] = min(best.get(way, np.inf), time.perf_counter() - t0)
+        return min(best, key=best.get)
 
     def release(self) -> None:
         for fbo in (self.frame, self.cache, self.scaled):

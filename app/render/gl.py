@@ -60,14 +60,15 @@ _READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER = 0x8CA8, 0x8CA9
 _COLOR_BIT, _DEPTH_BIT, _NEAREST = 0x4000, 0x100, 0x2600
 
 
-def copy_rect(ctx, dst, src, dst_origin=(0, 0), src_origin=(0, 0), depth: bool = True) -> None:
+def copy_rect(ctx, dst, src, dst_origin=(0, 0), src_origin=(0, 0), depth: bool = True,
+              size: tuple | None = None) -> None:
     """Copy a rectangle of framebuffer ``src`` from ``src_origin`` (lower-left corner, GL
-    pixels) into ``dst`` at ``dst_origin``: colour, and depth with ``depth``; as large as
-    the smaller framebuffer allows (moderngl's copy_framebuffer copies only origin to
-    origin). Leaves ``dst`` bound."""
+    pixels) into ``dst`` at ``dst_origin``: colour, and depth with ``depth``; ``size`` (w, h)
+    or as large as the smaller framebuffer allows (moderngl's copy_framebuffer copies only
+    origin to origin). Leaves ``dst`` bound."""
     (dx, dy), (sx, sy) = (int(v) for v in dst_origin), (int(v) for v in src_origin)
-    if (dx, dy, sx, sy) == (0, 0, 0, 0) and (depth or src.depth_attachment is None
-                                             or dst.depth_attachment is None):
+    if size is None and (dx, dy, sx, sy) == (0, 0, 0, 0) and (
+            depth or src.depth_attachment is None or dst.depth_attachment is None):
         ctx.copy_framebuffer(dst, src)
         dst.use()
         return
@@ -75,6 +76,8 @@ def copy_rect(ctx, dst, src, dst_origin=(0, 0), src_origin=(0, 0), depth: bool =
         raise RuntimeError("no GL library to copy a framebuffer region with")
     lib = _gl_library()
     w, h = min(src.width - sx, dst.width - dx), min(src.height - sy, dst.height - dy)
+    if size is not None:
+        w, h = min(w, int(size[0])), min(h, int(size[1]))
     if w <= 0 or h <= 0:
         return
     lib.glBindFramebuffer(_READ_FRAMEBUFFER, src.glo)
