@@ -507,3 +507,33 @@ def test_ground_cells_do_not_overlap_and_keep_the_painted_colours():
     e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
     area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
     assert area == pytest.approx(80000.0 ** 2, rel=1e-6)
+
+
+def test_ghost_composite_over_its_tiles_gives_the_same_pixels(renderer, rig):
+    """A frame after the ghost layer is drawn, its composite covers only the tiles holding
+    any ghost (a fraction of its box) - and the picture is the same."""
+    _, M = pose(rig, ARMS_DOWN)
+    _, G = pose(rig, dict(ARMS_DOWN, LeftArm=((0, 0, 1), 40)))
+    v = view_of(M, ghost_skin_matrices=G)
+    ctx = renderer.ctx
+    with ctx:     # single-sampled, as in the viewer
+        fbo = ctx.framebuffer([ctx.texture(SIZE, 4)], ctx.depth_renderbuffer(SIZE))
+
+        def shot():
+            renderer.render(v, fbo)
+            return np.frombuffer(fbo.read(components=3), np.uint8).reshape(SIZE[1], SIZE[0], 3).copy()
+        renderer._ghost.key = None
+        by_box = shot()                               # the layer drawn: composited over its box
+        assert renderer._ghost.tiles is None
+        by_tiles = shot()                             # its tiles read back, composited over them
+        fbo.release()
+    layer = renderer._ghost
+    assert layer.tiles and layer.tiles > 0
+    from app.render.scene import _pixel_box
+    box = _pixel_box(layer.rect, SIZE, 2)
+    with renderer.ctx:
+        tiles = np.frombuffer(renderer.ghost_tile_buf.buffer.read(layer.tiles * 8), np.float32).reshape(-1, 3, 2)
+    e1, e2 = tiles[:, 1] - tiles[:, 0], tiles[:, 2] - tiles[:, 0]
+    area_px = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum() * SIZE[0] * SIZE[1] / 4
+    assert area_px < 0.8 * box[2] * box[3]
+    assert np.array_equal(by_box, by_tiles)
