@@ -15,6 +15,7 @@ import time
 
 import moderngl
 import numpy as np
+from numba import njit
 
 from app.render.gl import can_copy_regions, copy_rect
 
@@ -178,7 +179,9 @@ class Compositor:
         if self._present_way is None:
             self._present_way = self._faster_present()
         self._present_way([(0, 0, *self.frame.size)] if regions is None else regions)
-        window.swap()
+        show = getattr(window, "show_regions", None)
+        if regions is None or show is None or not show(regions):
+            window.swap()
 
     def _present_by_draw(self, regions) -> None:
         ctx = self.ctx
@@ -248,22 +251,30 @@ def merge_rects(rects: list, waste: int = 4096) -> list:
     """Rectangles (x, y, w, h) merged into bounding boxes wherever the box of two covers at
     most ``waste`` pixels more than they do (a few draws instead of many small ones, without
     drawing much that did not change). Overlaps are drawn twice: the same pixels."""
-    def area(b):
-        return (b[2] - b[0]) * (b[3] - b[1])
+    if not rects:
+        return []
+    boxes = np.array([[x, y, x + w, y + h] for x, y, w, h in rects], np.int64)
+    boxes = boxes[np.lexsort((boxes[:, 0], boxes[:, 1]))]
+    for _ in range(2):              # the second pass folds boxes the first left apart
+        boxes = _fold(boxes, waste)
+    return [(int(x0), int(y0), int(x1 - x0), int(y1 - y0)) for x0, y0, x1, y1 in boxes]
 
-    boxes = [[x, y, x + w, y + h] for x, y, w, h in rects]
-    merged = True
-    while merged:
-        merged = False
-        for i in range(len(boxes)):
-            for j in range(i + 1, len(boxes)):
-                a, b = boxes[i], boxes[j]
-                box = [min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3])]
-                if area(box) <= area(a) + area(b) + waste:
-                    boxes[i] = box
-                    del boxes[j]
-                    merged = True
-                    break
-            if merged:
+
+@njit(cache=True)
+def _fold(boxes, waste):
+    """Each box into the first kept box it fits with, else kept: (M,4) of (x0, y0, x1, y1).
+    Compiled: a frame has a few dozen, and in Python this cost a millisecond."""
+    out = np.empty_like(boxes)
+    m = 0
+    for i in range(boxes.shape[0]):
+        b = boxes[i]
+        for k in range(m):
+            o = out[k]
+            x0, y0, x1, y1 = min(o[0], b[0]), min(o[1], b[1]), max(o[2], b[2]), max(o[3], b[3])
+            if (x1 - x0) * (y1 - y0) <= (o[2] - o[0]) * (o[3] - o[1]) + (b[2] - b[0]) * (b[3] - b[1]) + waste:
+                o[0], o[1], o[2], o[3] = x0, y0, x1, y1
                 break
-    return [(x0, y0, x1 - x0, y1 - y0) for x0, y0, x1, y1 in boxes]
+        else:
+            out[m] = b
+            m += 1
+    return out[:m].copy()

@@ -108,6 +108,8 @@ class App:
         glfw.set_scroll_callback(h, lambda _w, dx, dy: it.scroll(dy, dx))
         glfw.set_key_callback(h, lambda _w, key, sc, action, mods: it.key(key, action != glfw.RELEASE, mods))
         glfw.set_char_callback(h, lambda _w, cp: it.char(cp))
+        # uncovered or resized: the next present shows the whole frame, not just what changed
+        glfw.set_window_refresh_callback(h, lambda _w: self.compositor.damage.everything())
 
     @staticmethod
     def _opaque_windows() -> None:

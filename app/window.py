@@ -100,6 +100,7 @@ class Window:
         self.ctx = moderngl.create_context()
         self.visible = visible
         self.preserves_back_buffer = visible and self._keeps_back_buffer()
+        self._copy_sub_buffer = self._sub_buffer_copier() if self.preserves_back_buffer else None
         self._cursors = {"arrow": None, "hand": glfw.create_standard_cursor(glfw.HAND_CURSOR),
                          "move": glfw.create_standard_cursor(glfw.RESIZE_ALL_CURSOR)}
         self._cursor = "arrow"
@@ -118,6 +119,39 @@ class Window:
         except Exception:     # any doubt: present the whole frame every time
             return False
         return abs(pixel[0] - round(shades[1][0] * 255)) <= 1 and abs(pixel[0] - round(shades[0][0] * 255)) > 1
+
+    def _sub_buffer_copier(self):
+        """glXCopySubBufferMESA bound to this window, or None (not GLX, not Mesa): shows
+        rectangles of the back buffer without sending the whole window to the X server
+        (~2 ms of the server's CPU a frame at 1280x720 under Xvfb)."""
+        try:
+            import ctypes
+            gl = ctypes.CDLL("libGL.so.1")
+            gl.glXQueryExtensionsString.restype = ctypes.c_char_p
+            gl.glXQueryExtensionsString.argtypes = [ctypes.c_void_p, ctypes.c_int]
+            display = self.glfw.get_x11_display()
+            display = getattr(display, "value", display)
+            if b"GLX_MESA_copy_sub_buffer" not in (gl.glXQueryExtensionsString(display, 0) or b"").split():
+                return None
+            gl.glXGetProcAddressARB.restype = ctypes.c_void_p
+            address = gl.glXGetProcAddressARB(b"glXCopySubBufferMESA")
+            drawable = int(self.glfw.get_glx_window(self.handle))
+        except Exception:
+            return None
+        if not address or not drawable:
+            return None
+        copy = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int,
+                                ctypes.c_int, ctypes.c_int)(address)
+        return lambda x, y, w, h: copy(display, drawable, int(x), int(y), int(w), int(h))
+
+    def show_regions(self, regions) -> bool:
+        """Show just these rectangles (x, y, w, h; GL pixels) of the back buffer, if this
+        window can (it keeps its back buffer and has a sub-buffer copy); False: swap instead."""
+        if self._copy_sub_buffer is None:
+            return False
+        for rect in regions:
+            self._copy_sub_buffer(*rect)
+        return True
 
     @property
     def size(self) -> tuple[int, int]:

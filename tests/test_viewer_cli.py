@@ -80,16 +80,41 @@ def test_view_is_callable_without_arguments():
 def test_visible_window_presents_the_composed_frame(tmp_path):
     """The real window (glfw on an Xvfb of its own): a scripted drag runs (at the hit
     frame, so the batsman moves too), then idle frames, and at every other frame the
-    window's pixels are the composed frame (the present draw converts the format). Where
-    the window keeps its back buffer (software GL does) only what changed is presented:
-    the check shows no stale pixel is left behind."""
+    window's back buffer and what the X server shows are the composed frame. Where the
+    window keeps its back buffer (software GL does) only what changed is presented (and
+    sent to the X server): the check shows no stale pixel is left behind."""
     import shutil
     if shutil.which("Xvfb") is None:
         pytest.skip("no Xvfb")
     code = r'''
-import json, sys, numpy as np
+import ctypes, json, sys, numpy as np
 from app.viewer import App
 from app.script import ScriptPlayer
+
+
+class XImage(ctypes.Structure):
+    _fields_ = [("width", ctypes.c_int), ("height", ctypes.c_int), ("xoffset", ctypes.c_int),
+                ("format", ctypes.c_int), ("data", ctypes.POINTER(ctypes.c_ubyte)), ("byte_order", ctypes.c_int),
+                ("bitmap_unit", ctypes.c_int), ("bitmap_bit_order", ctypes.c_int), ("bitmap_pad", ctypes.c_int),
+                ("depth", ctypes.c_int), ("bytes_per_line", ctypes.c_int), ("bits_per_pixel", ctypes.c_int)]
+
+
+def shown(app):
+    """What the X server shows in the window (XGetImage), (h, w, 3)."""
+    x11 = ctypes.CDLL("libX11.so.6")
+    x11.XGetImage.restype = ctypes.POINTER(XImage)
+    x11.XGetImage.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int, ctypes.c_uint,
+                              ctypes.c_uint, ctypes.c_ulong, ctypes.c_int]
+    glfw, handle = app.window.glfw, app.window.handle
+    d = glfw.get_x11_display()
+    d = getattr(d, "value", d)
+    w, h = glfw.get_framebuffer_size(handle)
+    x11.XSync(ctypes.c_void_p(d), 0)
+    img = x11.XGetImage(d, int(glfw.get_x11_window(handle)), 0, 0, w, h, 0xFFFFFFFF, 2).contents
+    raw = np.ctypeslib.as_array(img.data, shape=(h * img.bytes_per_line,)).copy()
+    return raw.reshape(h, img.bytes_per_line)[:, :w * 4].reshape(h, w, 4)[..., [2, 1, 0]]
+
+
 app = App((640, 400), headless=False)
 player = ScriptPlayer([{"type": "key", "key": "h", "frame": 1},
                        {"type": "drag_target_path", "frame": 3, "circle": {"center": "target", "radius": 40,
@@ -107,7 +132,8 @@ for i in range(72):             # the second half presents the other way (draw o
         w, h = app.window.framebuffer_size
         screen = np.frombuffer(app.ctx.screen.read(components=3, alignment=1), np.uint8).reshape(h, w, 3)[::-1]
         frame = app.screenshot()
-        diff = max(diff, int(np.abs(screen.astype(int) - frame).max()))
+        diff = max(diff, int(np.abs(screen.astype(int) - frame).max()),
+                   int(np.abs(shown(app).astype(int) - frame).max()))
         regions = comp.last_present
         partial += regions is not None and sum(r[2] * r[3] for r in regions) < 0.9 * w * h
 print(json.dumps({"diff": diff, "errors": app.state.errors, "partial": int(partial),
