@@ -1,5 +1,6 @@
 """Frame composition: the 3D scene and the UI into one offscreen frame, then
-(with a window) one blit to the screen.
+(with a window) copied to the screen - only what changed, where the window keeps
+its back buffer.
 
 The 3D viewport is the left part of the window above the timeline: at render
 scale 1 the renderer draws straight into the frame at the viewport's corner
@@ -61,7 +62,7 @@ class Compositor:
         # costs ~6 ms on llvmpipe here)
         self.damage = FrameDamage()
         self._shown_key = None       # the scene whose image the frame holds (None: unknown)
-        self._shown_static = None    # and, if it was rendered over the static layer, (static key, changed box)
+        self._shown_static = None    # and, if it was rendered over the static layer, (static key, ChangedRegion)
         self._cache_static = None    # the same for the image in ``cache``
         self.last_present = None     # the regions the last present drew (None: the whole frame)
         self._present_way = None     # _present_by_draw or _present_by_blit, chosen at the first present
@@ -114,8 +115,8 @@ class Compositor:
     def draw_scene(self, key: str | None, render, changed=lambda: None) -> None:
         """``render(fbo)`` draws the scene at origin into ``fbo``; skipped (the
         cached image is used) when ``key`` equals the last one cached. ``changed()``, asked
-        after a render, says what it drew over which static layer: (static key, changed box
-        in frame pixels or None) or None when unknown (see ``SceneRenderer._note_changed``).
+        after a render, says what it drew over which static layer: (static key or None,
+        ``ChangedRegion``) or None when unknown (see ``SceneRenderer._note_changed``).
 
         At scale 1 the scene is drawn straight into the frame, and copied into the
         cache only when a scene repeats (the first idle frame after a drag or a
@@ -154,7 +155,7 @@ class Compositor:
 
     def _showing(self, key, static) -> None:
         """The frame's scene region now holds the image of scene ``key`` (None: unknown),
-        rendered over ``static`` = (static layer key, changed box) (None: not known)."""
+        rendered over ``static`` = (static layer key, ``ChangedRegion``) (None: not known)."""
         if key is None or key != self._shown_key:
             old, new = self._shown_static, static
             if old is not None and new is not None and old[0] is not None and old[0] == new[0]:
@@ -165,10 +166,10 @@ class Compositor:
         self._shown_key, self._shown_static = key, static
 
     def present(self, window) -> None:
-        """Draw the frame to a visible window and swap (no-op headless). A draw, not a
-        blit: the window's buffer has another pixel format, and llvmpipe's blit between
-        formats costs twice a textured full-window draw. Where the window keeps its back
-        buffer between swaps, only what changed since the last present is drawn."""
+        """Copy the frame to a visible window and show it (no-op headless), by a blit or a
+        textured draw, whichever was faster here (``_faster_present``). Where the window
+        keeps its back buffer between swaps, only what changed since the last present is
+        copied, and shown without sending the rest to the X server (``show_regions``)."""
         if window.glfw is None or not window.visible:
             self.damage.take(resolve=False)
             return
