@@ -125,16 +125,10 @@ def _skin_program(ctx, num_joints: int, with_normals: bool):
 
 
 def _project_rect(points: np.ndarray, vp: np.ndarray) -> tuple | None:
-    """NDC rectangle (x0, y0, x1, y1) holding world ``points (N,3)``; the whole viewport when
-    they cross the eye plane, None when off screen (or all behind the eye)."""
-    clip = np.concatenate([points, np.ones((len(points), 1))], 1) @ vp.astype(float).T
-    if np.all(clip[:, 3] <= 1e-3):
-        return None
-    if np.any(clip[:, 3] <= 1e-3):
-        return (-1.0, -1.0, 1.0, 1.0)
-    ndc = clip[:, :2] / clip[:, 3:]
-    lo, hi = np.clip(ndc.min(0), -1, 1), np.clip(ndc.max(0), -1, 1)
-    return None if np.any(hi <= lo) else (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    """NDC rectangle (x0, y0, x1, y1) holding the solid spanned by world ``points (N,3)``; the
+    whole viewport when it crosses the near plane, None when off screen (or all behind)."""
+    r = _segments_rect(points, points, vp, filled=True)
+    return None if r is None or r[2] <= r[0] or r[3] <= r[1] else r
 
 
 def _segments_rect(starts: np.ndarray, ends: np.ndarray, vp: np.ndarray, filled: bool = False) -> tuple | None:
@@ -201,13 +195,19 @@ def _ndc_box(starts, ends, m, filled):
 
 
 def _pixel_box(rect, size, grow: int) -> tuple | None:
-    """Pixel box (x, y, w, h) of an NDC rectangle, ``grow`` pixels wider, inside ``size``."""
-    w, h = size
-    x0 = max(int(np.floor((rect[0] + 1) * 0.5 * w)) - grow, 0)
-    y0 = max(int(np.floor((rect[1] + 1) * 0.5 * h)) - grow, 0)
-    x1 = min(int(np.ceil((rect[2] + 1) * 0.5 * w)) + grow, w)
-    y1 = min(int(np.ceil((rect[3] + 1) * 0.5 * h)) + grow, h)
+    """Pixel box (x, y, w, h) of an NDC rectangle, ``grow`` pixels wider, inside ``size``;
+    None when it is 10 pixels or less across."""
+    x0, y0, x1, y1 = _pixel_corners(rect, size, grow)
     return (x0, y0, x1 - x0, y1 - y0) if x1 - x0 > 10 and y1 - y0 > 10 else None
+
+
+def _pixel_corners(rect, size, grow: int) -> tuple:
+    """(x0, y0, x1, y1) pixels of an NDC rectangle, ``grow`` pixels wider, inside ``size``."""
+    w, h = size
+    return (max(int(np.floor((rect[0] + 1) * 0.5 * w)) - grow, 0),
+            max(int(np.floor((rect[1] + 1) * 0.5 * h)) - grow, 0),
+            min(int(np.ceil((rect[2] + 1) * 0.5 * w)) + grow, w),
+            min(int(np.ceil((rect[3] + 1) * 0.5 * h)) + grow, h))
 
 
 class ChangedRegion:
@@ -241,11 +241,7 @@ def _union_box(rects: list, size, grow: int) -> tuple | None:
     if not rects:
         return None
     r = np.asarray(rects, float)
-    w, h = size
-    x0 = max(int(np.floor((r[:, 0].min() + 1) * 0.5 * w)) - grow, 0)
-    y0 = max(int(np.floor((r[:, 1].min() + 1) * 0.5 * h)) - grow, 0)
-    x1 = min(int(np.ceil((r[:, 2].max() + 1) * 0.5 * w)) + grow, w)
-    y1 = min(int(np.ceil((r[:, 3].max() + 1) * 0.5 * h)) + grow, h)
+    x0, y0, x1, y1 = _pixel_corners((*r[:, :2].min(0), *r[:, 2:].max(0)), size, grow)
     return (x0, y0, x1 - x0, y1 - y0) if x1 > x0 and y1 > y0 else None
 
 
@@ -499,12 +495,11 @@ class SceneRenderer:
         b = np.asarray(view.ball_position, float)
         return b if body is None or np.linalg.norm(b - body.mean(0)) < 400 else None
 
-    def _caster_points(self, view: SceneView, ball) -> np.ndarray:
+    @staticmethod
+    def _caster_points(body, ball) -> np.ndarray:
         """Points ``(N,3)`` bounding the dynamic shadow casters: the corners of the batsman's
-        skinned per-joint boxes and a box round the casting ``ball`` (or None)."""
-        pts = []
-        if view.skin_matrices is not None:
-            pts.append(skinned_box_corners(view.skin_matrices, self._joint_boxes))
+        skinned per-joint boxes ``body`` (or None) and a box round the casting ``ball`` (or None)."""
+        pts = [] if body is None else [body]
         if ball is not None:
             pts.append(ball + 4.0 * _CUBE)
         return np.concatenate(pts) if pts else np.zeros((0, 3))
@@ -518,7 +513,7 @@ class SceneRenderer:
                None if ball is None else ball.astype(np.float32).tobytes())
         if key != self._shadow_key:
             self._shadow_ball = ball
-            pts = self._caster_points(view, ball)
+            pts = self._caster_points(body, ball)
             if len(pts):
                 self._shadow_fit = fit_sun(pts, SHADOW_SIZE)
             else:
@@ -694,11 +689,10 @@ class SceneRenderer:
         if skins:
             found.append(_project_rect(np.concatenate(
                 [skinned_box_corners(m, self._joint_boxes) for m in skins]), vp))
-        cube = np.array(np.meshgrid(*[[-1.0, 1.0]] * 3)).reshape(3, -1).T
         if view.ball_position is not None:
-            found.append(_project_rect(np.asarray(view.ball_position, float) + 4.0 * cube, vp))
+            found.append(_project_rect(np.asarray(view.ball_position, float) + 4.0 * _CUBE, vp))
         if view.target_position is not None:
-            found.append(_project_rect(np.asarray(view.target_position, float) + 32.0 * cube, vp))
+            found.append(_project_rect(np.asarray(view.target_position, float) + 32.0 * _CUBE, vp))
         return [(r[0] - pad[0], r[1] - pad[1], r[2] + pad[0], r[3] + pad[1]) for r in found if r is not None]
 
     def _render(self, view: SceneView, fbo, aa: bool) -> None:
@@ -903,15 +897,7 @@ class SceneRenderer:
     def _screen_rect(self, skin_matrices: np.ndarray, vp: np.ndarray) -> tuple | None:
         """NDC rectangle (x0, y0, x1, y1) holding the skinned mesh, from its per-joint boxes
         (every skinned vertex is a convex blend of its joints' transformed boxes)."""
-        corners = np.einsum("jab,jkb->jka", np.asarray(skin_matrices, float), self._joint_boxes)
-        clip = corners.reshape(-1, 4) @ vp.astype(float).T
-        if np.any(clip[:, 3] <= 1e-3):
-            return (-1.0, -1.0, 1.0, 1.0)     # crosses the eye plane: the whole viewport
-        ndc = clip[:, :2] / clip[:, 3:]
-        lo, hi = np.clip(ndc.min(0), -1, 1), np.clip(ndc.max(0), -1, 1)
-        if np.any(hi <= lo):
-            return None
-        return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+        return _project_rect(skinned_box_corners(skin_matrices, self._joint_boxes), vp)
 
     def _composite_ghost(self, layer, origin) -> None:
         """Blend the cached ghost over the frame where it is nearer than the scene."""
