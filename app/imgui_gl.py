@@ -107,10 +107,11 @@ class ImguiRenderer:
         """Redraw the whole UI next frame (the target's pixels were overwritten)."""
         self.damage.invalidate()
 
-    def render(self, draw_data, fbo: moderngl.Framebuffer, keep: tuple | None = None) -> None:
-        """Draw ``draw_data`` into ``fbo``. ``keep`` (x, y, w, h, display pixels) is
-        a rectangle of ``fbo`` that nothing but the UI draws into: there only the
-        bands that changed since the last call are redrawn (``app.ui_damage``)."""
+    def render(self, draw_data, fbo: moderngl.Framebuffer, keep: tuple = ()) -> None:
+        """Draw ``draw_data`` into ``fbo``. ``keep`` holds rectangles (x, y, w, h,
+        display pixels; not overlapping) of ``fbo`` that nothing but the UI draws
+        into: there only the bands that changed since the last call are redrawn
+        (``app.ui_damage``)."""
         self.drawn_rects = []
         if self._update_textures():
             self.damage.invalidate()
@@ -123,8 +124,8 @@ class ImguiRenderer:
             return
         ox, oy = draw_data.display_pos
         display = (ox, oy, ox + width, oy + height)
-        box = None if keep is None else (keep[0], keep[1], keep[0] + keep[2], keep[1] + keep[3])
-        indices, plan = self.damage.plan(geo, display, box, (fbo.glo, fbo.size, tuple(draw_data.framebuffer_scale)))
+        boxes = [(x, y, x + w, y + h) for x, y, w, h in keep]
+        indices, plan = self.damage.plan(geo, display, boxes, (fbo.glo, fbo.size, tuple(draw_data.framebuffer_scale)))
         if not plan:
             return
         self._write(self.vbo, geo.words.tobytes())

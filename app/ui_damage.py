@@ -4,9 +4,9 @@ docked panel whose draw commands changed since the last frame.
 ImGui rebuilds every vertex every frame, and on software GL (llvmpipe) filling
 the panel's ~270k pixels costs ~3 ms, most of a frame budget. But between two
 frames of a drag only a few readout lines and the blend plot change. The frame
-buffer keeps last frame's pixels where nothing else draws (the panel area, the
-``keep`` rectangle), so there it is enough to redraw horizontal bands whose
-sequence of triangles changed; everywhere else (the timeline and popups over
+buffer keeps last frame's pixels where nothing else draws (the panel and the
+timeline: the ``keeps`` rectangles), so there it is enough to redraw horizontal bands whose
+sequence of triangles changed; everywhere else (popups and tooltips over
 the 3D view, which is redrawn each frame) the UI is drawn in full.
 
 Redrawing a band with the scissor set to it gives the same pixels as a full
@@ -135,12 +135,23 @@ def dirty_rects(old: np.ndarray | None, new: np.ndarray, keep: tuple) -> list[tu
     return [(x0, y0 + a * BAND_PX, x1, min(y0 + b * BAND_PX, y1)) for a, b in zip(edges[0::2], edges[1::2])]
 
 
-def outside(keep: tuple, display: tuple) -> list[tuple]:
-    """Up to four rectangles covering ``display`` (x0, y0, x1, y1) minus ``keep``."""
-    dx0, dy0, dx1, dy1 = display
+def outside(keeps: list[tuple], display: tuple) -> list[tuple]:
+    """Rectangles covering ``display`` (x0, y0, x1, y1) minus every rectangle of
+    ``keeps`` (which must not overlap one another)."""
+    parts = [tuple(display)]
+    for keep in keeps:
+        parts = [piece for r in parts for piece in _subtract(r, keep)]
+    return parts
+
+
+def _subtract(r: tuple, keep: tuple) -> list[tuple]:
+    """Up to four rectangles covering ``r`` minus ``keep``."""
+    dx0, dy0, dx1, dy1 = r
     kx0, ky0, kx1, ky1 = (min(max(v, lo), hi) for v, lo, hi in zip(keep, (dx0, dy0) * 2, (dx1, dy1) * 2))
+    if kx1 <= kx0 or ky1 <= ky0:
+        return [tuple(r)]
     parts = [(dx0, dy0, dx1, ky0), (dx0, ky1, dx1, dy1), (dx0, ky0, kx0, ky1), (kx1, ky0, dx1, ky1)]
-    return [r for r in parts if r[2] > r[0] and r[3] > r[1]]
+    return [p for p in parts if p[2] > p[0] and p[3] > p[1]]
 
 
 def batches(geo: UiGeometry, rects: np.ndarray, regions: list[tuple]) -> tuple[np.ndarray, list[Batch]]:
@@ -193,8 +204,8 @@ def _select(rects, tri_cmd, indices, regions):
 
 
 class DamageTracker:
-    """Remembers last frame's band signatures inside ``keep`` and plans the
-    draws of the next frame: everything outside ``keep``, the changed bands inside."""
+    """Remembers last frame's band signatures inside the ``keeps`` rectangles and
+    plans the draws of the next frame: everything outside them, the changed bands inside."""
 
     def __init__(self):
         self._key = None
@@ -204,20 +215,23 @@ class DamageTracker:
     def invalidate(self) -> None:
         self._key = self._signatures = None
 
-    def plan(self, geo: UiGeometry, display: tuple, keep: tuple | None, key) -> tuple[np.ndarray, list[Batch]]:
-        """Index array and batches for this frame. ``key`` names the target's
-        identity and size: a different key (or ``keep`` None) means a full redraw."""
+    def plan(self, geo: UiGeometry, display: tuple, keeps, key) -> tuple[np.ndarray, list[Batch]]:
+        """Index array and batches for this frame. ``keeps`` are the rectangles
+        (x0, y0, x1, y1; not overlapping) nothing but the UI draws into, or None;
+        ``key`` names the target's identity and size: a different key (or no
+        ``keeps``) means a full redraw."""
         rects = triangle_rects(geo)
-        if keep is None or keep[2] <= keep[0] or keep[3] <= keep[1]:
+        keeps = [tuple(float(v) for v in k) for k in (keeps or ()) if k[2] > k[0] and k[3] > k[1]]
+        if not keeps:
             self.invalidate()
             self.last_dirty_fraction = 1.0
             return batches(geo, rects, [display])
-        keep = tuple(float(v) for v in keep)
-        full_key = (key, keep, tuple(display))
-        sig = band_signatures(rects, triangle_hashes(geo), keep)
-        old = self._signatures if full_key == self._key else None
-        dirty = dirty_rects(old, sig, keep)
-        self._key, self._signatures = full_key, sig
-        area = sum((r[3] - r[1]) for r in dirty) / max(keep[3] - keep[1], 1e-9)
-        self.last_dirty_fraction = float(area)
-        return batches(geo, rects, outside(keep, display) + dirty)
+        full_key = (key, tuple(keeps), tuple(display))
+        hashes = triangle_hashes(geo)
+        signatures = [band_signatures(rects, hashes, k) for k in keeps]
+        old = self._signatures if full_key == self._key else [None] * len(keeps)
+        dirty = [r for o, s, k in zip(old, signatures, keeps) for r in dirty_rects(o, s, k)]
+        self._key, self._signatures = full_key, signatures
+        area = sum((r[2] - r[0]) * (r[3] - r[1]) for r in dirty)
+        self.last_dirty_fraction = float(area / max(sum((k[2] - k[0]) * (k[3] - k[1]) for k in keeps), 1e-9))
+        return batches(geo, rects, outside(keeps, display) + dirty)

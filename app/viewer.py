@@ -172,7 +172,7 @@ class App:
         if comp.frame_generation != self._ui_generation:     # a new frame: nothing of the UI in it
             self.gui.invalidate()
             self._ui_generation = comp.frame_generation
-        self.gui.render(imgui.get_draw_data(), comp.frame, keep=rects["panel"])
+        self.gui.render(imgui.get_draw_data(), comp.frame, keep=(rects["panel"], rects["timeline"]))
         comp.damage.add(self.gui.drawn_rects)
         self._captures()
         flush()

@@ -25,7 +25,7 @@ def _geometry(quads, clip=(0, 0, 100, 100)):
 
 
 def _plan(tracker, geo, keep=(50, 0, 100, 100)):
-    return tracker.plan(geo, (0, 0, 100, 100), keep, key="fbo")
+    return tracker.plan(geo, (0, 0, 100, 100), [keep], key="fbo")
 
 
 def test_unchanged_panel_redraws_nothing_inside_keep():
@@ -64,15 +64,35 @@ def test_outside_keep_is_always_drawn_and_regions_tile_the_display():
     idx, batches = _plan(t, geo)
     assert [tuple(map(float, b.rect)) for b in batches] == [(0, 0, 50, 100)]   # clip ∩ outside
     assert batches[0].count == 6
-    parts = U.outside((20, 30, 60, 70), (0, 0, 100, 100))
+    parts = U.outside([(20, 30, 60, 70)], (0, 0, 100, 100))
     assert sum((r[2] - r[0]) * (r[3] - r[1]) for r in parts) == 100 * 100 - 40 * 40
+
+
+def test_regions_outside_several_keeps_tile_the_rest_of_the_display():
+    keeps = [(50, 0, 100, 100), (0, 90, 50, 100)]      # a panel and a timeline under the view
+    parts = U.outside(keeps, (0, 0, 100, 100))
+    covered = np.zeros((100, 100), int)
+    for x0, y0, x1, y1 in parts + keeps:
+        covered[int(y0):int(y1), int(x0):int(x1)] += 1
+    assert (covered == 1).all()                         # no gap, no overlap
+
+
+def test_each_keep_is_tracked_on_its_own():
+    t = U.DamageTracker()
+    keeps = [(50, 0, 100, 100), (0, 90, 50, 100)]
+    base = [(50, 0, 100, 100, 1), (0, 90, 50, 100, 1), (60, 20, 90, 28, 2), (10, 92, 20, 98, 4)]
+    t.plan(_geometry(base), (0, 0, 100, 100), keeps, key="fbo")
+    moved = base[:3] + [(12, 92, 22, 98, 4)]            # only the timeline's playhead moves
+    idx, batches = t.plan(_geometry(moved), (0, 0, 100, 100), keeps, key="fbo")
+    assert batches and all(b.rect[1] >= 90 and b.rect[2] <= 50 for b in batches)
+    assert 0 < t.last_dirty_fraction < 0.1
 
 
 def test_new_target_or_no_keep_redraws_everything():
     geo = _geometry([(50, 0, 100, 100, 1)])
     t = U.DamageTracker()
     _plan(t, geo)
-    t.plan(geo, (0, 0, 100, 100), (50, 0, 100, 100), key="other fbo")
+    t.plan(geo, (0, 0, 100, 100), [(50, 0, 100, 100)], key="other fbo")
     assert t.last_dirty_fraction == 1.0
     idx, batches = t.plan(geo, (0, 0, 100, 100), None, key="fbo")
     assert batches[0].rect == (0, 0, 100, 100)
@@ -88,21 +108,24 @@ def test_partial_redraws_match_a_full_redraw_during_a_drag():
     try:
         player = ScriptPlayer([{"type": "key", "key": "h", "frame": 0},
                                {"type": "drag_target_path", "frame": 2, "frames": 12,
-                                "circle": {"center": "target", "radius": 40, "turns": 1}}])
+                                "circle": {"center": "target", "radius": 40, "turns": 1}},
+                               {"type": "scrub", "frame": 17, "to": 20},
+                               {"type": "key", "key": "right", "frame": 19}])
         fractions = []
-        for i in range(16):
+        rects = layout(app.window.size)
+        for i in range(21):
             player.apply(app, i)
             app.frame(dt=1 / 60)
             fractions.append(app.gui.damage.last_dirty_fraction)
-            if i in (5, 9, 15):
+            if i in (5, 9, 15, 18, 20):     # dragging; scrubbed; stepped (the timeline changes)
                 from imgui_bundle import imgui
                 tracked = read_rgb(app.compositor.frame)
                 app.gui.invalidate()
                 app.gui.render(imgui.get_draw_data(), app.compositor.frame,
-                               keep=layout(app.window.size)["panel"])
+                               keep=(rects["panel"], rects["timeline"]))
                 full = read_rgb(app.compositor.frame)
                 assert np.array_equal(tracked, full), f"frame {i}"
-        assert min(fractions[3:]) < 0.5          # most of the panel is not redrawn while dragging
+        assert min(fractions[3:16]) < 0.5        # most of the panel is not redrawn while dragging
         assert app.state.errors == 0
     finally:
         app.close()
