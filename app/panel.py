@@ -62,16 +62,30 @@ def _shot_choice(settings: ViewerSettings, state: AppState) -> None:
         imgui.end_combo()
     if chosen is not None:
         imgui.text_colored(DIM, f"{chosen.name}: {chosen.num_frames} frames, hit frame {chosen.hit_frame}")
-        if chosen.description:
-            imgui.push_text_wrap_pos(0.0)
-            imgui.text_colored(DIM, chosen.description)
-            imgui.pop_text_wrap_pos()
+        _description(chosen, state.shots)
     else:
         imgui.text_colored(ERROR_COLOR, "no shot loaded")
     t = settings.target
     changed, xy = imgui.drag_float2("target x, y", [float(t[0]), float(t[1])], 0.5, format="%.1f cm")
     if changed:
         settings.target = np.array([xy[0], xy[1], t[2]])
+
+
+def _description(chosen, shots) -> None:
+    """The shot's description, wrapped, in a block as tall as the longest in the
+    library: what follows stays put when the ball path picks another shot
+    (and the panel is not redrawn whole)."""
+    width = imgui.get_content_region_avail().x
+    tallest = max((imgui.calc_text_size(s.description, False, width).y for s in shots if s.description),
+                  default=0.0)
+    if tallest <= 0:
+        return
+    top = imgui.get_cursor_pos_y()
+    if chosen.description:
+        imgui.push_text_wrap_pos(0.0)
+        imgui.text_colored(DIM, chosen.description)
+        imgui.pop_text_wrap_pos()
+    imgui.set_cursor_pos_y(top + tallest + imgui.get_style().item_spacing.y)
 
 
 def _falloff_slider(settings: ViewerSettings, state: AppState) -> None:

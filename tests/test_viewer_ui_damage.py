@@ -129,3 +129,22 @@ def test_partial_redraws_match_a_full_redraw_during_a_drag():
         assert app.state.errors == 0
     finally:
         app.close()
+
+
+def test_a_new_shot_does_not_move_the_panel_below_its_description():
+    """Descriptions of different lengths sit in a block of one height: picking another
+    shot redraws its lines, readouts and plot, not the whole panel."""
+    from app.viewer import App
+    app = App((960, 600), headless=True)
+    try:
+        names = sorted(app.state.shots, key=lambda s: len(s.description or ""))
+        shortest, longest = names[0].name, names[-1].name
+        fractions = []
+        for name in (shortest, shortest, shortest, longest, longest, shortest, shortest):
+            app.settings.pinned_shot = name
+            app.frame(dt=1 / 60)
+            fractions.append(app.gui.damage.last_dirty_fraction)
+        assert app.state.shot.name == shortest and app.state.errors == 0
+        assert max(fractions[3:]) < 0.6, fractions
+    finally:
+        app.close()
