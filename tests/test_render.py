@@ -537,3 +537,26 @@ def test_ghost_composite_over_its_tiles_gives_the_same_pixels(renderer, rig):
     area_px = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum() * SIZE[0] * SIZE[1] / 4
     assert area_px < 0.8 * box[2] * box[3]
     assert np.array_equal(by_box, by_tiles)
+
+
+def test_blended_layers_leave_the_depth_buffer_alone(renderer, rig):
+    """Overlay lines and points, the ghost and the batsman's shadow on the ground are blended
+    over the scene, depth-tested but not writing depth: the depth buffer is the one of the
+    scene without them (a line written into it hid the hit points drawn after it)."""
+    g_p, M = pose(rig, ARMS_DOWN)
+    _, M1 = pose(rig, dict(ARMS_DOWN, LeftArm=((0, 0, 1), 40)))
+    line = np.array([[-100.0, 150.0, 300.0], [60.0, 100.0, -100.0]])
+    bare = view_of(M, shadows=False)
+    dressed = dataclasses.replace(bare, shadows=True, ghost_skin_matrices=M1, ghost_alpha=0.4,
+                                  polylines=[(line, (1, 1, 0, 1), 6.0)], points=[(g_p[:5], (1, 0, 1, 1), 10.0)],
+                                  crosses=[(g_p[5:8], (0, 1, 1, 1), 10.0)])
+    ctx = renderer.ctx
+    with ctx:
+        fbo = ctx.framebuffer([ctx.texture(SIZE, 4)], ctx.depth_renderbuffer(SIZE))
+        depths, images = [], []
+        for v in (bare, dressed):
+            renderer.render(v, fbo=fbo)
+            depths.append(np.frombuffer(fbo.read(attachment=-1, dtype="f4", components=1), np.float32))
+            images.append(np.frombuffer(fbo.read(components=3), np.uint8).reshape(-1, 3).astype(int))
+    assert changed(images[1], images[0]).sum() > 200           # they were drawn
+    np.testing.assert_array_equal(depths[1], depths[0])

@@ -87,6 +87,13 @@ def copy_rect(ctx, dst, src, dst_origin=(0, 0), src_origin=(0, 0), depth: bool =
     dst.use()      # moderngl binds its own framebuffer again (read and draw)
 
 
+def depth_writes(ctx, on: bool) -> None:
+    """Turn depth writes of the bound framebuffer on or off (blended layers test depth without
+    writing it). moderngl keeps the mask per framebuffer: ``Context`` has no ``depth_mask``,
+    and setting one there silently did nothing."""
+    ctx.fbo.depth_mask = on
+
+
 def mat_bytes(m: np.ndarray) -> bytes:
     """Row-major (..., 4, 4) column-vector matrices as GLSL (column-major) bytes."""
     m = np.asarray(m, np.float32)

@@ -21,13 +21,14 @@ Matrices use the column-vector convention: ``p_clip = proj @ view @ p_world``.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 
 from . import props
-from .gl import DynamicBuffer, copy_rect, mat_bytes, program, set_uniform, shader_source
+from .gl import DynamicBuffer, copy_rect, depth_writes, mat_bytes, program, set_uniform, shader_source
 
 IDENTITY = np.eye(4, dtype=np.float32)
 _CUBE = np.array(np.meshgrid(*[[-1.0, 1.0]] * 3)).reshape(3, -1).T     # (8,3) unit cube corners
@@ -204,10 +205,10 @@ def _pixel_box(rect, size, grow: int) -> tuple | None:
 def _pixel_corners(rect, size, grow: int) -> tuple:
     """(x0, y0, x1, y1) pixels of an NDC rectangle, ``grow`` pixels wider, inside ``size``."""
     w, h = size
-    return (max(int(np.floor((rect[0] + 1) * 0.5 * w)) - grow, 0),
-            max(int(np.floor((rect[1] + 1) * 0.5 * h)) - grow, 0),
-            min(int(np.ceil((rect[2] + 1) * 0.5 * w)) + grow, w),
-            min(int(np.ceil((rect[3] + 1) * 0.5 * h)) + grow, h))
+    return (max(math.floor((rect[0] + 1) * 0.5 * w) - grow, 0),
+            max(math.floor((rect[1] + 1) * 0.5 * h) - grow, 0),
+            min(math.ceil((rect[2] + 1) * 0.5 * w) + grow, w),
+            min(math.ceil((rect[3] + 1) * 0.5 * h) + grow, h))
 
 
 class ChangedRegion:
@@ -240,8 +241,8 @@ def _union_box(rects: list, size, grow: int) -> tuple | None:
     ``size``; None for no rectangles."""
     if not rects:
         return None
-    r = np.asarray(rects, float)
-    x0, y0, x1, y1 = _pixel_corners((*r[:, :2].min(0), *r[:, 2:].max(0)), size, grow)
+    x0, y0, x1, y1 = _pixel_corners((min(r[0] for r in rects), min(r[1] for r in rects),
+                                     max(r[2] for r in rects), max(r[3] for r in rects)), size, grow)
     return (x0, y0, x1 - x0, y1 - y0) if x1 > x0 and y1 > y0 else None
 
 
@@ -561,11 +562,11 @@ class SceneRenderer:
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.DST_COLOR, moderngl.ZERO
         ctx.depth_func = "<="
-        ctx.depth_mask = False
+        depth_writes(ctx, False)
         ctx.polygon_offset = (-1.0, -4.0)
         vao.render(vertices=6)
         ctx.polygon_offset = (0.0, 0.0)
-        ctx.depth_mask = True
+        depth_writes(ctx, True)
         ctx.depth_func = "<"
         ctx.disable(moderngl.BLEND)
 
@@ -916,13 +917,13 @@ class SceneRenderer:
         set_uniform(prog, "u_rect", layer.rect)
         set_uniform(prog, "u_origin", tuple(int(v) for v in origin))
         ctx.depth_func = "<"
-        ctx.depth_mask = False
+        depth_writes(ctx, False)
         if layer.tiles is None:                           # its tiles are not known yet: the box
             self.ghost_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
         else:
             self._overlay_vao("ghost tiles", self.p_ghost_tiles, self.ghost_tile_buf, "2f", ("in_pos",)).render(
                 moderngl.TRIANGLES, vertices=layer.tiles)
-        ctx.depth_mask = True
+        depth_writes(ctx, True)
 
     def _draw_ghost(self, view: SceneView, target_fbo) -> None:
         """The source pose, translucent: a depth pre-pass (no colour) so only its nearest
@@ -936,14 +937,14 @@ class SceneRenderer:
         ghost.shadow.render()
         target_fbo.color_mask = (True, True, True, True)
         ctx.depth_func = "<="
-        ctx.depth_mask = False
+        depth_writes(ctx, False)
         set_uniform(self.p_static, "u_model", IDENTITY)
         set_uniform(self.p_static, "u_mode", 1)
         set_uniform(self.p_static, "u_alpha", float(view.ghost_alpha))
         ghost.lit.render()
         set_uniform(self.p_static, "u_mode", 0)
         set_uniform(self.p_static, "u_alpha", 1.0)
-        ctx.depth_mask = True
+        depth_writes(ctx, True)
 
     # ------------------------------------------------------------------ overlays
     @staticmethod
@@ -1012,7 +1013,7 @@ class SceneRenderer:
         for p in (self.p_line, self.p_point):
             set_uniform(p, "u_view_proj", vp)
             set_uniform(p, "u_viewport", (float(size[0]), float(size[1])))
-        ctx.depth_mask = False
+        depth_writes(ctx, False)
         if len(lines):
             self.line_buf.update(lines.tobytes())
             vao = self._overlay_vao("lines", self.p_line, self.line_buf)
@@ -1033,7 +1034,7 @@ class SceneRenderer:
                     ctx.disable(moderngl.DEPTH_TEST)
                 vao.render(moderngl.POINTS, vertices=len(points) - n_user, first=n_user)
                 ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_mask = True
+        depth_writes(ctx, True)
         return lines, points
 
     # ------------------------------------------------------------------ offscreen
@@ -1069,7 +1070,8 @@ def _shadow_target(ctx, size: int, coverage: bool = False):
 
 def skinned_box_corners(skin_matrices: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     """World corners ``(J*8, 3)`` of the per-joint rest boxes ``(J,8,4)`` moved by their joints."""
-    return np.einsum("jab,jkb->jka", np.asarray(skin_matrices, float)[:, :3], boxes).reshape(-1, 3)
+    # a batched matmul: ~3x faster than the einsum it replaces (it runs several times a frame)
+    return np.matmul(boxes, np.asarray(skin_matrices, float)[:, :3].transpose(0, 2, 1)).reshape(-1, 3)
 
 
 _SUN_ROTATION = np.ascontiguousarray(look_at(SUN_DIR, (0.0, 0.0, 0.0)).astype(float)[:3, :3])  # world -> sun axes
