@@ -13,7 +13,8 @@ uniform vec3 u_haze_color;     // display colour of the sky at the horizon (appl
 uniform sampler2DShadow u_shadow_map;
 uniform float u_shadow_on;
 
-vec3 shade(vec3 albedo, vec3 n, vec3 world_pos, float gloss, float shadow) {
+// shade() in two parts: returns what the sun's shadow scales, ``rest`` what it does not.
+vec3 shade_split(vec3 albedo, vec3 n, vec3 world_pos, float gloss, out vec3 rest) {
     vec3 v = normalize(u_eye - world_pos);
     float ndl = max(dot(n, u_sun_dir), 0.0);
     float fill = max(dot(n, u_fill_dir), 0.0);
@@ -23,10 +24,14 @@ vec3 shade(vec3 albedo, vec3 n, vec3 world_pos, float gloss, float shadow) {
     float spec = pow(max(dot(n, h), 0.0), spec_pow) * (0.04 + 0.5 * gloss) * (spec_pow + 8.0) / 25.0;
     float r = 1.0 - max(dot(n, v), 0.0);
     float rim = r * r * r * (0.35 + 0.65 * max(n.y, 0.0));
-    vec3 c = albedo * (ambient + u_sun_color * ndl * shadow + u_fill_color * fill);
-    c += u_sun_color * spec * ndl * shadow;
-    c += rim * 0.22 * u_sky_ambient * (0.5 + albedo);
-    return c;
+    rest = albedo * (ambient + u_fill_color * fill) + rim * 0.22 * u_sky_ambient * (0.5 + albedo);
+    return u_sun_color * ndl * (albedo + spec);
+}
+
+vec3 shade(vec3 albedo, vec3 n, vec3 world_pos, float gloss, float shadow) {
+    vec3 rest;
+    vec3 sun = shade_split(albedo, n, world_pos, gloss, rest);
+    return rest + sun * shadow;
 }
 
 vec3 tone(vec3 c) {

@@ -17,9 +17,13 @@ def shader_source(name: str) -> str:
     return _INCLUDE.sub(lambda m: (SHADER_DIR / m.group(1)).read_text(), text)
 
 
-def program(ctx, vertex: str, fragment: str, geometry: str | None = None):
-    return ctx.program(vertex_shader=shader_source(vertex), fragment_shader=shader_source(fragment),
-                       geometry_shader=shader_source(geometry) if geometry else None)
+def program(ctx, vertex: str, fragment: str, geometry: str | None = None, defines: tuple = ()):
+    """A program from files in ``shaders/``, each with ``#define NAME`` for ``defines``."""
+    def source(name):
+        text = shader_source(name)
+        return text.replace("#version 330", "#version 330\n" + "".join(f"#define {d}\n" for d in defines), 1)
+    return ctx.program(vertex_shader=source(vertex), fragment_shader=source(fragment),
+                       geometry_shader=source(geometry) if geometry else None)
 
 
 @functools.cache

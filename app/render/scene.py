@@ -383,6 +383,7 @@ class SceneRenderer:
 
         self.p_static = program(ctx, "static.vert", "lit.frag")
         self.p_vertex_lit = program(ctx, "lit_vertex.vert", "vertex_color.frag")
+        self.p_body_lit = program(ctx, "lit_vertex.vert", "vertex_lit_shadow.frag", defines=("PIXEL_SHADOW",))
         self.p_depth_static = program(ctx, "depth_static.vert", "depth.frag")
         self.p_ground = program(ctx, "ground.vert", "ground.frag")
         self.p_receiver = program(ctx, "receiver.vert", "receiver.frag")
@@ -405,8 +406,9 @@ class SceneRenderer:
         # the posed batsman; the coarse copy casts the shadow (a third of the triangles, the same outline)
         J = rig.skeleton.num_joints
         skin_progs = {n: _skin_program(ctx, J, n) for n in (True, False)}
-        # the finest level pixel-lit, the coarser ones vertex-lit (lit_vertex.vert)
-        lit_progs = (self.p_static, self.p_vertex_lit)
+        # the finest level pixel-lit, the coarser ones vertex-lit with the shadow per pixel
+        # (lit_vertex.vert with PIXEL_SHADOW, vertex_lit_shadow.frag)
+        lit_progs = (self.p_static, self.p_body_lit)
         self.posed = _PosedBody(ctx, skin_progs, J, self.body_levels, self.shadow_mesh, lit_progs,
                                 self.p_depth_static)
         self.ghost_posed = _PosedBody(ctx, skin_progs, J, self.body_levels, None, lit_progs[:1],
@@ -463,7 +465,7 @@ class SceneRenderer:
 
     # ------------------------------------------------------------------ setup
     def _static_setup(self):
-        for p in (self.p_static, self.p_vertex_lit, self.p_ground, self.p_receiver):
+        for p in (self.p_static, self.p_vertex_lit, self.p_body_lit, self.p_ground, self.p_receiver):
             for k, v in LIGHTING.items():
                 set_uniform(p, k, v)
             set_uniform(p, "u_shadow_texel", 1.0 / SHADOW_SIZE)   # receiver: set per use
@@ -472,7 +474,7 @@ class SceneRenderer:
         set_uniform(self.p_ground, "u_light", light)
         for p in (self.p_receiver, self.p_receiver_cov):
             set_uniform(p, "u_shadow_tint", tint)
-        for p in (self.p_static, self.p_vertex_lit):
+        for p in (self.p_static, self.p_vertex_lit, self.p_body_lit):
             set_uniform(p, "u_mode", 0)
             set_uniform(p, "u_alpha", 1.0)
             set_uniform(p, "u_tint", (1.0, 1.0, 1.0))
@@ -573,7 +575,7 @@ class SceneRenderer:
     # ------------------------------------------------------------------ passes
     def _frame_uniforms(self, vp, eye, light_vp, shadows: bool, shadow_tex) -> None:
         shadow_tex.use(0)
-        for p in (self.p_static, self.p_vertex_lit, self.p_ground, self.p_receiver,
+        for p in (self.p_static, self.p_vertex_lit, self.p_body_lit, self.p_ground, self.p_receiver,
                   self.p_receiver_cov):
             set_uniform(p, "u_view_proj", vp)
             set_uniform(p, "u_eye", eye)
@@ -787,7 +789,7 @@ class SceneRenderer:
             ctx.enable(moderngl.CULL_FACE)
             set_uniform(self.p_static, "u_mode", 0)
             self.posed.update(view.skin_matrices)
-            set_uniform(self.p_vertex_lit, "u_model", IDENTITY)
+            set_uniform(self.p_body_lit, "u_model", IDENTITY)
             set_uniform(self.p_static, "u_model", IDENTITY)
             self.posed.lit.render()
             ctx.disable(moderngl.CULL_FACE)
