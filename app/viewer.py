@@ -26,7 +26,7 @@ from app.state import AppState
 from app.stats import FrameStats
 from app.submit import build_scene_view, scene_key
 from app.timeline import TIMELINE_HEIGHT, draw_timeline
-from app.update import ball_at, default_target, load_library, pose_at, prewarm, update
+from app.update import ball_at, default_target, load_library, pose_at, prewarm, update, warm_up
 
 
 
@@ -65,6 +65,7 @@ class App:
         self._install_callbacks()
         if load_library(self.state, manifest):
             self.settings.target = default_target(self.state)
+            warm_up(self.state, self.settings)
         self.scene_renderer = self._make_scene_renderer()
         self.compositor = Compositor(self.ctx)
         self._opaque_windows()
@@ -113,12 +114,13 @@ class App:
 
     @staticmethod
     def _opaque_windows() -> None:
-        """Opaque panel and timeline: the frame is never cleared (see app.compose)."""
+        """Opaque panel and timeline (the frame is never cleared, see app.compose), and
+        opaque popups and tooltips: a shot list over the panel's text was hard to read."""
         from imgui_bundle import imgui
         style = imgui.get_style()
-        for col in (imgui.Col_.window_bg, imgui.Col_.child_bg):
+        for col in (imgui.Col_.window_bg, imgui.Col_.popup_bg):
             c = style.color_(col)
-            style.set_color_(col, imgui.ImVec4(c.x, c.y, c.z, 1.0) if col == imgui.Col_.window_bg else c)
+            style.set_color_(col, imgui.ImVec4(c.x, c.y, c.z, 1.0))
 
     # -- one frame --------------------------------------------------------------
     def frame(self, dt: float | None = None, render: bool = True) -> None:

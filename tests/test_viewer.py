@@ -375,3 +375,17 @@ def test_startup_objects_are_frozen_out_of_full_collections(app):
     collection (a ~120 ms stall mid-drag) must not walk them."""
     import gc
     assert gc.get_freeze_count() > 10_000
+
+
+def test_the_engine_is_warm_before_the_first_frame():
+    """The first solve (loading the compiled engine, building the shot's adapter) happens
+    while starting, and once more warm: the panel's solve readout is a re-solve's, and the
+    first frame does not solve again."""
+    from app.viewer import App
+    app = App((480, 320), headless=True)
+    try:
+        assert app.state.solve_count == 2 and app.state.adaptation is not None
+        app.frame(dt=1 / 60)
+        assert app.state.solve_count == 2 and app.state.errors == 0
+    finally:
+        app.close()
