@@ -175,7 +175,7 @@ def _overlay_section(settings: ViewerSettings) -> None:
         settings.antialias = v
     if imgui.is_item_hovered():
         imgui.set_tooltip("FXAA over the batsman, ball and target (about 3 ms a frame in software GL);"
-                          " the pitch and stadium are always multisampled")
+                          " the pitch and stadium are multisampled whenever the camera holds still")
     imgui.text("source pose")
     for mode in GHOST_MODES:
         imgui.same_line()

@@ -54,7 +54,8 @@ class ViewerSettings:
     loop: bool = True
     overlays: Overlays = field(default_factory=Overlays)
     render_scale: float = 1.0
-    antialias: bool = False           # FXAA over the moving things (~3 ms on llvmpipe); the static scene is always MSAA
+    antialias: bool = False           # FXAA over the moving things (~3 ms on llvmpipe); the static scene is
+                                      # multisampled whenever the camera holds still (app.submit)
     # capture requests, consumed by the loop
     screenshot_requested: bool = False
     export_requested: bool = False

@@ -78,6 +78,7 @@ class AppState:
     ball_position: np.ndarray | None = None
     # interaction
     viewport: tuple = (0, 0, 1, 1)                    # (x, y, w, h) window pixels, top-left origin
+    camera_still_s: float = 1.0                       # how long the camera has held still
     hover_target: bool = False
     dragging_target: bool = False
     cursor: str = "arrow"

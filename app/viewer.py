@@ -72,6 +72,7 @@ class App:
         self.frame_index = 0
         self._ui_generation = -1
         self._in_flight = False          # a frame submitted but not yet shown / waited for
+        self._camera_key = self.camera.view().tobytes()   # the camera starts still
         self._last_time = time.perf_counter()
         self._frame_stamps: deque = deque()
         self._pending_screenshots: list[Path] = []
@@ -148,6 +149,7 @@ class App:
             load_library(self.state, self.manifest)
 
         update(self.state, self.settings, dt)
+        self._track_camera(dt)
         if self.interaction.gesture is None and not self.settings.playing:
             prewarm(self.state)      # idle frames only
         self._pc_pad_pose()
@@ -191,6 +193,14 @@ class App:
                           wait=(t_wait - t_engine) * 1e3, render=(t_render - t_wait) * 1e3,
                           compose=(t_end - t_render) * 1e3)
         self.frame_index += 1
+
+    def _track_camera(self, dt: float) -> None:
+        """How long the camera has held still (``state.camera_still_s``)."""
+        key = self.camera.view().tobytes()
+        if key != self._camera_key:
+            self._camera_key, self.state.camera_still_s = key, 0.0
+        else:
+            self.state.camera_still_s += float(dt)
 
     def _finish_previous(self) -> None:
         """Show the last submitted frame (window) and wait until it is drawn."""

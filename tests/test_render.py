@@ -578,3 +578,24 @@ def test_coarse_levels_take_the_self_shadow_per_pixel_like_the_finest(renderer, 
     for level in range(1, len(renderer.body_levels)):
         coarse = render(renderer, dataclasses.replace(close, detail=level))
         assert np.abs(coarse - finest).mean(-1)[whites].mean() < 2.3, level
+
+
+def test_static_antialias_smooths_the_pitch_edges_and_keeps_the_picture(renderer, rig):
+    """Into a single-sampled target the cached static scene is drawn with 4x MSAA when
+    ``static_antialias`` is set: pixels along the creases, the pitch's edges and the stumps
+    take in-between colours; the picture is the same."""
+    _, M = pose(rig, ARMS_DOWN)
+    ctx = renderer.ctx
+    with ctx:
+        fbo = ctx.framebuffer([ctx.texture(SIZE, 4)], ctx.depth_renderbuffer(SIZE))
+
+        def shot(smooth):
+            renderer.render(view_of(M, static_antialias=smooth), fbo)
+            return np.frombuffer(fbo.read(components=3), np.uint8).reshape(SIZE[1], SIZE[0], 3)[::-1].astype(int)
+
+        jagged, smooth = shot(False), shot(True)
+        assert renderer._static.key[-1] == 4
+        fbo.release()
+    diff = changed(jagged, smooth, tol=6)
+    assert 0.002 < diff.mean() < 0.1
+    assert np.abs(jagged.mean((0, 1)) - smooth.mean((0, 1))).max() < 2.0

@@ -381,11 +381,34 @@ def test_the_engine_is_warm_before_the_first_frame():
     """The first solve (loading the compiled engine, building the shot's adapter) happens
     while starting, and once more warm: the panel's solve readout is a re-solve's, and the
     first frame does not solve again."""
-    from app.viewer import App
-    app = App((480, 320), headless=True)
-    try:
-        assert app.state.solve_count == 2 and app.state.adaptation is not None
+    from app.settings import ViewerSettings
+    from app.state import AppState
+    from app.update import default_target, load_library, update, warm_up
+    state, settings = AppState(), ViewerSettings()
+    assert load_library(state, None)
+    settings.target = default_target(state)
+    warm_up(state, settings)
+    assert state.solve_count == 2 and state.adaptation is not None
+    update(state, settings, 1 / 60)
+    assert state.solve_count == 2 and state.errors == 0
+
+
+def test_static_scene_is_multisampled_once_the_camera_holds_still(app):
+    """While the camera orbits, the static scene is redrawn single-sampled for every view
+    (multisampled it would cost ~60 ms a frame here); once the camera has held still for
+    ``STATIC_AA_SETTLE_S`` it is drawn once more, multisampled, and kept."""
+    from app.script import ScriptPlayer
+    from app.submit import STATIC_AA_SETTLE_S
+    vx, vy, vw, vh = app.state.viewport
+    cx, cy = vx + vw // 2, vy + vh // 2
+    player = ScriptPlayer([{"type": "drag", "button": "right", "frame": 0, "from": [cx, cy],
+                            "to": [cx + 80, cy + 10], "frames": 6}])
+    samples = []
+    for i in range(9 + int(np.ceil(STATIC_AA_SETTLE_S * 60)) + 2):
+        player.apply(app, i)
         app.frame(dt=1 / 60)
-        assert app.state.solve_count == 2 and app.state.errors == 0
-    finally:
-        app.close()
+        samples.append(app.scene_renderer._static.key[-1])
+    app.camera.reset()
+    run(app, 1)
+    assert set(samples[3:8]) == {0}                   # orbiting: single-sampled
+    assert samples[-1] == 4                           # held still: multisampled

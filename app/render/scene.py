@@ -73,7 +73,8 @@ class SceneView:
     shadows: bool = True
     skeleton_width_px: float = 3.0
     skeleton_on_top: bool = True  # skeleton lines ignore depth (visible inside the mesh)
-    antialias: bool = False       # single-sampled targets: MSAA-resolved static layer, FXAA on what moves
+    antialias: bool = False       # single-sampled targets: FXAA over what moves
+    static_antialias: bool = True  # single-sampled targets: the cached static scene drawn with 4x MSAA
     detail: int | None = None     # the batsman's level of detail (0 finest); None: by his size on screen
 
 
@@ -637,21 +638,23 @@ class SceneRenderer:
         return layer.fbo
 
     def render(self, view: SceneView, fbo=None) -> None:
-        """Draw the scene into ``fbo`` (default: the screen), antialiased when ``fbo`` is
-        single-sampled and ``view.antialias`` is set: the cached static layer is drawn
-        with 4x MSAA and resolved (once per camera), and the moving things (batsman, ghost,
-        ball, target) get an FXAA pass over their screen boxes only (copied out of the frame
-        into a texture the pass reads). The screen, a target without depth, or a multisampled ``fbo``
-        one (``render_image``: MSAA over everything) is drawn into directly."""
+        """Draw the scene into ``fbo`` (default: the screen). Into a single-sampled ``fbo``
+        the cached static layer is drawn with 4x MSAA and resolved (once per camera) when
+        ``view.static_antialias`` is set, and with ``view.antialias`` the moving things
+        (batsman, ghost, ball, target) get an FXAA pass over their screen boxes only (copied
+        out of the frame into a texture the pass reads). The screen, a target without depth,
+        or a multisampled ``fbo`` (``render_image``: MSAA over everything) is drawn into
+        directly."""
         import moderngl
 
         ctx = self.ctx
         target = fbo if fbo is not None else ctx.screen
-        aa = bool(view.antialias) and int(getattr(target, "samples", 0) or 0) == 0
-        if not aa or target is ctx.screen or getattr(target, "depth_attachment", None) is None:
-            return self._render(view, target, aa=False)
+        single = int(getattr(target, "samples", 0) or 0) == 0
+        smooth_static = bool(view.static_antialias) and single
+        if not (view.antialias and single) or target is ctx.screen or getattr(target, "depth_attachment", None) is None:
+            return self._render(view, target, smooth_static)
         size = tuple(view.size)
-        self._render(view, target, aa=True)
+        self._render(view, target, smooth_static)
         boxes = [_pixel_box(r, size, 6) for r in self._moving_rects(view, self._vp, size)]
         boxes = [b for b in boxes if b is not None]
         if not boxes:
@@ -698,7 +701,7 @@ class SceneRenderer:
             found.append(_project_rect(np.asarray(view.target_position, float) + 32.0 * _CUBE, vp))
         return [(r[0] - pad[0], r[1] - pad[1], r[2] + pad[0], r[3] + pad[1]) for r in found if r is not None]
 
-    def _render(self, view: SceneView, fbo, aa: bool) -> None:
+    def _render(self, view: SceneView, fbo, smooth_static: bool) -> None:
         """Draw the scene into ``fbo``, including the shadow pass.
 
         The static scene (sky, ground with the stumps' shadow, stadium, stumps) is drawn once
@@ -722,7 +725,7 @@ class SceneRenderer:
         ctx.depth_func = "<"
         shadows = bool(view.shadows)
         self.posed.level = self.ghost_posed.level = self._detail_level(view, vp)
-        static = self._static_layer(view, target_fbo, vp, eye, shadows, aa)
+        static = self._static_layer(view, target_fbo, vp, eye, shadows, smooth_static)
         ghost = self._ghost_layer(view, vp, eye) if static is not None else None
         if static is None:
             self._draw_static(view, target_fbo, vp, eye, shadows, view.origin)
