@@ -19,11 +19,11 @@ DESIRED_RGBA = (1.0, 0.85, 0.1, 1.0)
 BAT_PATH_RGBA = (1.0, 0.55, 0.1, 0.95)
 SOURCE_BAT_PATH_RGBA = (0.6, 0.65, 0.75, 0.7)
 FLIGHT_RGBA = (0.3, 1.0, 0.45, 0.9)
+SKELETON_RGBA = (1.0, 0.9, 0.2, 1.0)
+GHOST_SKELETON_RGBA = (0.7, 0.8, 1.0, 0.8)
 # the static scene (pitch, stumps, stadium) is multisampled once the camera has held still this
 # long: drawing it so costs ~60 ms here, once per view - too much for every frame of an orbit
 STATIC_AA_SETTLE_S = 0.2
-SKELETON_RGBA = (1.0, 0.9, 0.2, 1.0)
-GHOST_SKELETON_RGBA = (0.7, 0.8, 1.0, 0.8)
 
 
 def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCamera,

@@ -68,8 +68,8 @@ def fly(position, velocity, duration: float = 3.0, dt: float = 1 / 120,
         radius: float = 3.6) -> np.ndarray:
     """Polyline ``(K,3)`` of a ball under gravity bouncing on the ground (y = radius),
     sampled every ``dt`` seconds. Each flight between bounces is a closed-form
-    parabola: a scalar loop over bounces finds where each starts, one vectorised
-    pass samples them all; once a bounce is too small to see, the ball rolls on."""
+    parabola: a scalar loop over bounces finds where each starts, one compiled pass
+    samples them all; once a bounce is too small to see, the ball rolls on."""
     count = int(np.ceil(duration / dt)) + 1
     starts, origins, velocities, airborne = _bounces(position, velocity, duration, e_ground, friction, radius)
     return _sample_pieces(starts, origins, velocities, airborne, float(dt), count, float(radius), GRAVITY)

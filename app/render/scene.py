@@ -651,7 +651,8 @@ class SceneRenderer:
         target = fbo if fbo is not None else ctx.screen
         single = int(getattr(target, "samples", 0) or 0) == 0
         smooth_static = bool(view.static_antialias) and single
-        if not (view.antialias and single) or target is ctx.screen or getattr(target, "depth_attachment", None) is None:
+        direct = target is ctx.screen or getattr(target, "depth_attachment", None) is None
+        if not (view.antialias and single) or direct:
             return self._render(view, target, smooth_static)
         size = tuple(view.size)
         self._render(view, target, smooth_static)
@@ -736,15 +737,14 @@ class SceneRenderer:
             self._static.key, None if view.skin_matrices is None else np.asarray(view.skin_matrices, np.float32).tobytes(),
             self._shadow_key if shadows else None, self.posed.level, bool(view.show_pitch), shadows)
         layer = self._posed_layer
-        if pose_key is not None and layer.key == pose_key:
+        held = pose_key is not None and layer.key == pose_key
+        if held:
             copy_rect(ctx, target_fbo, layer.fbo, view.origin)    # static scene, batsman, his shadow
-            ctx.viewport = (*view.origin, w, h)
-            self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
-        else:
-            if static is not None:
-                copy_rect(ctx, target_fbo, static, view.origin)
-            ctx.viewport = (*view.origin, w, h)
-            self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
+        elif static is not None:
+            copy_rect(ctx, target_fbo, static, view.origin)
+        ctx.viewport = (*view.origin, w, h)
+        self._frame_uniforms(vp, eye, light_vp, shadows, self.shadow_tex)
+        if not held:
             self._draw_batsman(view, quad)
             if pose_key is not None and pose_key == self._last_pose_key:
                 # the same pose twice running (the target dragged at a frame where he holds still):
@@ -909,13 +909,11 @@ class SceneRenderer:
         """Blend the cached ghost over the frame where it is nearer than the scene."""
         import moderngl
 
-        if layer.rect is None:
-            return
+        if layer.rect is None or layer.tiles == 0:
+            return                                        # no pixel of ghost in view
         ctx = self.ctx
         layer.color.use(1)
         layer.depth.use(2)
-        if layer.tiles == 0:
-            return                                        # no pixel of ghost in view
         prog = self.p_ghost if layer.tiles is None else self.p_ghost_tiles
         set_uniform(prog, "u_ghost_color", 1)
         set_uniform(prog, "u_ghost_depth", 2)
