@@ -1,14 +1,18 @@
 """BVH reader and writer.
 
 Reads any rotation channel order per joint, End Sites, root-only or per-joint
-translation channels, CRLF or LF, tabs, exponent notation. Malformed files
-raise :class:`BvhError` whose message names the line and what was expected.
+translation channels, CRLF or LF, tabs, exponent notation, a UTF-8 byte-order
+mark. Malformed files raise :class:`BvhError`: one line naming the file, the
+line and what was expected. Sizes and magnitudes have the named limits below,
+so a hostile file fails fast with a clear message instead of exhausting memory
+or the stack, or giving non-finite poses.
 """
 from __future__ import annotations
 
 import math
 import os
 import re
+from itertools import islice
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +20,41 @@ import numpy as np
 from . import atomic, quat
 from .skeleton import Clip, Skeleton
 
+MAX_FILE_BYTES = 512 * 1024 * 1024   # refused before reading
+MAX_TOKEN = 64                       # characters in a name or number
+MAX_DEPTH = 64                       # nested joints (the root is level 1)
+MAX_JOINTS = 1024
+MAX_FRAMES = 1_000_000
+MAX_JOINT_FRAMES = 5_000_000         # frames x joints: bounds the pose arrays (~150 bytes each)
+MAX_VALUES = 20_000_000              # frames x channels: the motion data (8 bytes each)
+MAX_OFFSET = 1e6                     # |offset| and |position channel|, file units
+MAX_ANGLE = 1e5                      # |rotation channel|, degrees
+MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-4, 10.0   # s: 10 kHz .. 0.1 Hz
+MAX_QUOTE = 40                       # characters of a token repeated in a message
+MAX_PATH_SHOWN = 120                 # characters of a path repeated in a message
+
 _ROT = {"Xrotation": "X", "Yrotation": "Y", "Zrotation": "Z"}
 _POS = ("Xposition", "Yposition", "Zposition")
+# One token longer than MAX_TOKEN is seen as a MAX_TOKEN + 1 prefix: a 200 MB
+# blob without whitespace is never copied whole.
+_TOKEN = re.compile(r"\S{1,%d}" % (MAX_TOKEN + 1))
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_CHUNK_CHARS = 1 << 22   # motion data is converted 4 MB at a time: junk fails in its first chunk
+
+
+def _printable(text: str, limit: int) -> str:
+    """``text`` cut to ``limit`` characters (+ '…'), control characters escaped."""
+    shown = text if len(text) <= limit else text[:limit] + "…"
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in shown)
+
+
+def _quote(token: str) -> str:
+    return f"'{_printable(token, MAX_QUOTE)}'"
+
+
+def _shown_path(path: str) -> str:
+    path = _printable(path, 10 ** 9)
+    return path if len(path) <= MAX_PATH_SHOWN else "…" + path[-(MAX_PATH_SHOWN - 1):]
 
 
 class BvhError(ValueError):
@@ -25,148 +62,277 @@ class BvhError(ValueError):
 
     def __init__(self, message: str, line: int | None = None, path: str | None = None):
         self.line = line
-        where = f"{path or 'BVH'}" + (f", line {line}" if line else "")
+        where = _shown_path(path) if path else "BVH"
+        where += f", line {line}" if line else ""
         super().__init__(f"{where}: {message}")
 
 
+def _line_at(text: str, pos: int) -> int:
+    """1-based line of character ``pos`` (files with lone CR line ends count CRs)."""
+    lf = text.count("\n", 0, pos)
+    return lf + 1 if lf or "\n" in text else text.count("\r", 0, pos) + 1
+
+
 class _Tokens:
+    """The header's tokens, read lazily: the first bad token fails at once."""
+
     def __init__(self, text: str, path: str | None):
-        self.path = path
-        self.toks: list[tuple[str, int]] = []
-        for n, raw in enumerate(text.splitlines(), start=1):
-            for t in raw.split():
-                self.toks.append((t, n))
-        self.i = 0
+        self.text, self.path = text, path
+        self._matches = _TOKEN.finditer(text)
+        self.start = self.end = 0   # span of the last token read
 
     def error(self, msg: str) -> BvhError:
-        line = self.toks[min(self.i, len(self.toks) - 1)][1] if self.toks else 1
-        return BvhError(msg, line, self.path)
-
-    def peek(self) -> str | None:
-        return self.toks[self.i][0] if self.i < len(self.toks) else None
+        """An error at the last token read."""
+        return BvhError(msg, _line_at(self.text, self.start), self.path)
 
     def next(self, what: str) -> str:
-        if self.i >= len(self.toks):
-            raise BvhError(f"unexpected end of file, expected {what}", self.toks[-1][1] if self.toks else 1, self.path)
-        t = self.toks[self.i][0]
-        self.i += 1
-        return t
+        m = next(self._matches, None)
+        if m is None:
+            raise self.error(f"unexpected end of file, expected {what}")
+        self.start, self.end = m.span()
+        token = m.group()
+        if len(token) > MAX_TOKEN:
+            raise self.error(f"expected {what}, found a token longer than {MAX_TOKEN} characters "
+                             f"(MAX_TOKEN) {_quote(token)}")
+        return token
 
     def expect(self, word: str) -> None:
         t = self.next(f"'{word}'")
         if t != word:
-            self.i -= 1
-            raise self.error(f"expected '{word}', found '{t}'")
+            raise self.error(f"expected '{word}', found {_quote(t)}")
 
-    def number(self, what: str) -> float:
+    def number(self, what: str, limit: float = math.inf, limit_name: str = "") -> float:
         t = self.next(what)
         try:
             v = float(t)
         except ValueError:
-            self.i -= 1
-            raise self.error(f"expected {what} (a number), found '{t}'") from None
+            raise self.error(f"expected {what} (a number), found {_quote(t)}") from None
         if not math.isfinite(v):
-            self.i -= 1
-            raise self.error(f"expected {what} (a finite number), found '{t}'")
+            raise self.error(f"expected {what} (a finite number), found {_quote(t)}")
+        if abs(v) > limit:
+            raise self.error(f"{what} {_quote(t)} is beyond the limit ±{limit:g} ({limit_name})")
         return v
 
     def integer(self, what: str) -> int:
         t = self.next(what)
-        if not re.fullmatch(r"[+-]?\d+", t):
-            self.i -= 1
-            raise self.error(f"expected {what} (an integer), found '{t}'")
-        return int(t)
+        if not _INTEGER.fullmatch(t):
+            raise self.error(f"expected {what} (an integer), found {_quote(t)}")
+        return int(t)   # at most MAX_TOKEN digits: far below Python's int-digit limit
+
+    def offset(self) -> list[float]:
+        return [self.number(f"OFFSET {a}", MAX_OFFSET, "MAX_OFFSET") for a in "xyz"]
 
 
-def _parse_joint(tk: _Tokens, parent: int, names, parents, offsets, channels, end_sites):
-    name = tk.next("a joint name")
-    if name in ("{", "}"):
-        tk.i -= 1
-        raise tk.error(f"expected a joint name, found '{name}'")
-    if name in names:
-        tk.i -= 1
-        raise tk.error(f"duplicate joint name '{name}'")
-    j = len(names)
-    names.append(name)
-    parents.append(parent)
-    tk.expect("{")
-    tk.expect("OFFSET")
-    offsets.append([tk.number("OFFSET x"), tk.number("OFFSET y"), tk.number("OFFSET z")])
+class _Hierarchy:
+    """Joints in file (depth-first) order, as parsed."""
+
+    def __init__(self):
+        self.names: list[str] = []
+        self.parents: list[int] = []
+        self.offsets: list[list[float]] = []
+        self.channels: list[list[str]] = []
+        self.end_sites: dict[int, np.ndarray] = {}
+
+
+def _channels(tk: _Tokens, name: str) -> list[str]:
     tk.expect("CHANNELS")
     n = tk.integer("a channel count")
     if n < 0 or n > 6:
-        tk.i -= 1
         raise tk.error(f"channel count must be 0..6, found {n}")
     chans = []
     for _ in range(n):
         c = tk.next("a channel name")
         if c not in _ROT and c not in _POS:
-            tk.i -= 1
-            raise tk.error(f"expected a channel name (Xposition..Zrotation), found '{c}'")
+            raise tk.error(f"expected a channel name (Xposition..Zrotation), found {_quote(c)}")
         if c in chans:
-            tk.i -= 1
-            raise tk.error(f"channel '{c}' repeated in joint '{name}'")
+            raise tk.error(f"channel {_quote(c)} repeated in joint {_quote(name)}")
         chans.append(c)
     rot = [c for c in chans if c in _ROT]
     if len(rot) not in (0, 3):
-        raise tk.error(f"joint '{name}' needs 0 or 3 rotation channels, has {len(rot)}")
-    channels.append(chans)
-    while True:
-        t = tk.next("'JOINT', 'End Site' or '}'")
-        if t == "}":
-            return
-        if t == "JOINT":
-            _parse_joint(tk, j, names, parents, offsets, channels, end_sites)
-        elif t == "End":
-            tk.expect("Site")
-            tk.expect("{")
-            tk.expect("OFFSET")
-            end_sites[j] = np.array([tk.number("OFFSET x"), tk.number("OFFSET y"), tk.number("OFFSET z")])
-            tk.expect("}")
-        else:
-            tk.i -= 1
-            raise tk.error(f"expected 'JOINT', 'End Site' or '}}', found '{t}'")
+        raise tk.error(f"joint {_quote(name)} needs 0 or 3 rotation channels, has {len(rot)}")
+    return chans
 
 
-def parse(text: str, path: str | None = None) -> tuple[Skeleton, Clip]:
-    """Parse BVH text into a skeleton and a clip."""
-    tk = _Tokens(text, path)
-    if not tk.toks:
-        raise BvhError("empty file, expected 'HIERARCHY'", 1, path)
+def _open_joint(tk: _Tokens, h: _Hierarchy, parent: int) -> int:
+    """Read a joint's name, '{', OFFSET and CHANNELS; its index."""
+    name = tk.next("a joint name")
+    if name in ("{", "}") or not name.isprintable():
+        raise tk.error(f"expected a joint name, found {_quote(name)}")
+    if name in h.names:
+        raise tk.error(f"duplicate joint name {_quote(name)}")
+    if len(h.names) >= MAX_JOINTS:
+        raise tk.error(f"more than {MAX_JOINTS} joints (MAX_JOINTS)")
+    h.names.append(name)
+    h.parents.append(parent)
+    tk.expect("{")
+    tk.expect("OFFSET")
+    h.offsets.append(tk.offset())
+    h.channels.append(_channels(tk, name))
+    return len(h.names) - 1
+
+
+def _end_site(tk: _Tokens, h: _Hierarchy, joint: int) -> None:
+    tk.expect("Site")
+    tk.expect("{")
+    tk.expect("OFFSET")
+    h.end_sites[joint] = np.array(tk.offset())
+    tk.expect("}")
+
+
+def _parse_hierarchy(tk: _Tokens) -> _Hierarchy:
+    """HIERARCHY and the joint tree, with an explicit stack (no recursion)."""
     tk.expect("HIERARCHY")
     tk.expect("ROOT")
-    names, parents, offsets, channels, end_sites = [], [], [], [], {}
-    _parse_joint(tk, -1, names, parents, offsets, channels, end_sites)
+    h = _Hierarchy()
+    open_joints = [_open_joint(tk, h, -1)]
+    while open_joints:
+        t = tk.next("'JOINT', 'End Site' or '}'")
+        if t == "}":
+            open_joints.pop()
+        elif t == "JOINT":
+            if len(open_joints) >= MAX_DEPTH:
+                raise tk.error(f"joints nested more than {MAX_DEPTH} levels deep (MAX_DEPTH)")
+            open_joints.append(_open_joint(tk, h, open_joints[-1]))
+        elif t == "End":
+            _end_site(tk, h, open_joints[-1])
+        else:
+            raise tk.error(f"expected 'JOINT', 'End Site' or '}}', found {_quote(t)}")
+    return h
+
+
+def _frame_count(tk: _Tokens, num_joints: int, num_channels: int) -> int:
     tk.expect("MOTION")
     tk.expect("Frames:")
     F = tk.integer("the frame count")
     if F < 1:
-        tk.i -= 1
         raise tk.error(f"frame count must be at least 1, found {F}")
+    if F > MAX_FRAMES:
+        raise tk.error(f"frame count {F} is beyond {MAX_FRAMES} (MAX_FRAMES)")
+    if F * num_joints > MAX_JOINT_FRAMES:
+        raise tk.error(f"{F} frames of {num_joints} joints is beyond {MAX_JOINT_FRAMES} "
+                       "joint-frames (MAX_JOINT_FRAMES)")
+    if F * num_channels > MAX_VALUES:
+        raise tk.error(f"{F} frames of {num_channels} channels is beyond {MAX_VALUES} "
+                       "values (MAX_VALUES)")
+    return F
+
+
+def _frame_time(tk: _Tokens) -> float:
     tk.expect("Frame")
     tk.expect("Time:")
     dt = tk.number("the frame time")
-    if dt <= 0:
-        tk.i -= 1
-        raise tk.error(f"frame time must be positive, found {dt}")
-    n_ch = sum(len(c) for c in channels)
-    data_start = tk.i
-    remaining = len(tk.toks) - data_start
-    if remaining != F * n_ch:
-        # Locate the first frame line with the wrong number of values.
-        lines: dict[int, int] = {}
-        for t, ln in tk.toks[data_start:]:
-            lines[ln] = lines.get(ln, 0) + 1
-        for k, (ln, count) in enumerate(sorted(lines.items())):
-            if count != n_ch:
-                raise BvhError(f"frame {k} has {count} values, expected {n_ch} (one per channel)", ln, path)
-        raise BvhError(f"found {len(lines)} frame lines, expected {F} (the 'Frames:' count)",
-                       tk.toks[-1][1], path)
-    values = np.empty(F * n_ch)
-    for k in range(F * n_ch):
-        values[k] = tk.number(f"a channel value of frame {k // max(n_ch, 1)}")
-    data = values.reshape(F, n_ch)
-    return _build(names, parents, offsets, channels, end_sites, data, dt)
+    if not MIN_FRAME_TIME <= dt <= MAX_FRAME_TIME:
+        raise tk.error(f"frame time must be {MIN_FRAME_TIME:g}..{MAX_FRAME_TIME:g} s "
+                       f"(MIN_FRAME_TIME..MAX_FRAME_TIME), found {_quote(str(dt))}")
+    return dt
+
+
+def _chunk_end(text: str, start: int, path: str | None) -> int:
+    """End of the chunk from ``start``: at whitespace, so no token is cut."""
+    cut = start + _CHUNK_CHARS
+    if cut >= len(text):
+        return len(text)
+    for k in range(cut, max(start, cut - MAX_TOKEN - 1), -1):
+        if text[k].isspace():
+            return k
+    raise BvhError(f"expected a channel value, found a token longer than {MAX_TOKEN} "
+                   f"characters (MAX_TOKEN) {_quote(text[cut - MAX_TOKEN:cut])}",
+                   _line_at(text, cut), path)
+
+
+class _Motion:
+    """Where the motion data lies in the text, to place an error by value index."""
+
+    def __init__(self, text: str, start: int, num_channels: int, path: str | None):
+        self.text, self.start, self.path = text, start, path
+        self.num_channels = num_channels
+        self.chunks: list[tuple[int, int]] = []   # (text position, index of its first value)
+
+    def error_at(self, k: int, msg: str) -> BvhError:
+        """An error at value ``k`` of the data (0-based over all frames)."""
+        pos, first = next((p, f) for p, f in reversed(self.chunks) if f <= k)
+        m = next(islice(_TOKEN.finditer(self.text, pos), k - first, None))
+        frame = k // max(self.num_channels, 1)
+        return BvhError(f"expected a channel value of frame {frame} {msg}, found "
+                        f"{_quote(m.group())}",
+                        _line_at(self.text, m.start()), self.path)
+
+    def count_error(self, num_frames: int, stop: int) -> BvhError:
+        """The first frame line (before ``stop``) whose number of values is wrong."""
+        lines, k, pos = 0, 0, self.start
+        while pos < stop:
+            end = self.text.find("\n", pos, stop)
+            end = stop if end < 0 else end
+            count = len(self.text[pos:end].split())
+            if count and count != self.num_channels:
+                return BvhError(f"frame {k} has {count} values, expected {self.num_channels} "
+                                "(one per channel)", _line_at(self.text, pos), self.path)
+            lines, k, pos = lines + (count > 0), k + (count > 0), end + 1
+        return BvhError(f"found {lines} frame lines, expected {num_frames} (the 'Frames:' count)",
+                        _line_at(self.text, max(stop - 1, self.start)), self.path)
+
+    def values(self, num_frames: int) -> np.ndarray:
+        """All ``num_frames * num_channels`` numbers, converted a chunk at a time."""
+        expected = num_frames * self.num_channels
+        parts, n, pos = [], 0, self.start
+        while pos < len(self.text):
+            end = _chunk_end(self.text, pos, self.path)
+            tokens = self.text[pos:end].split()
+            if n + len(tokens) > expected:
+                raise self.count_error(num_frames, end)
+            self.chunks.append((pos, n))
+            parts.append(self._convert(tokens, n))
+            n, pos = n + len(tokens), end
+        if n != expected:
+            raise self.count_error(num_frames, len(self.text))
+        return np.concatenate(parts) if parts else np.empty(0)
+
+    def _convert(self, tokens: list[str], first: int) -> np.ndarray:
+        if tokens and max(map(len, tokens)) > MAX_TOKEN:
+            k = next(i for i, t in enumerate(tokens) if len(t) > MAX_TOKEN)
+            raise self.error_at(first + k, f"(at most {MAX_TOKEN} characters, MAX_TOKEN)")
+        try:
+            return np.fromiter(map(float, tokens), float, len(tokens))
+        except ValueError:
+            k = next(i for i, t in enumerate(tokens) if not _is_float(t))
+            raise self.error_at(first + k, "(a number)") from None
+
+    def check(self, data: np.ndarray, channels: list[list[str]]) -> None:
+        """Every value finite and within its channel's limit."""
+        limits = np.array([MAX_ANGLE if c in _ROT else MAX_OFFSET for chans in channels for c in chans])
+        bad = np.flatnonzero(~(np.abs(data) <= limits).ravel())   # NaN compares False
+        if bad.size == 0:
+            return
+        k = int(bad[0])
+        if not math.isfinite(data.flat[k]):
+            raise self.error_at(k, "(a finite number)")
+        limit = limits[k % len(limits)]
+        bound = f"±{MAX_ANGLE:g} degrees, MAX_ANGLE" if limit == MAX_ANGLE else f"±{MAX_OFFSET:g}, MAX_OFFSET"
+        raise self.error_at(k, f"(within {bound})")
+
+
+def _is_float(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def parse(text: str, path: str | None = None) -> tuple[Skeleton, Clip]:
+    """Parse BVH text into a skeleton and a clip."""
+    text = text[1:] if text.startswith("\ufeff") else text
+    if _TOKEN.search(text) is None:
+        raise BvhError("empty file, expected 'HIERARCHY'", 1, path)
+    tk = _Tokens(text, path)
+    h = _parse_hierarchy(tk)
+    num_channels = sum(len(c) for c in h.channels)
+    F = _frame_count(tk, len(h.names), num_channels)
+    dt = _frame_time(tk)
+    motion = _Motion(text, tk.end, num_channels, path)
+    data = motion.values(F).reshape(F, num_channels)
+    motion.check(data, h.channels)
+    return _build(h.names, h.parents, h.offsets, h.channels, h.end_sites, data, dt)
 
 
 def _build(names, parents, offsets, channels, end_sites, data, dt):
@@ -204,15 +370,41 @@ def _build(names, parents, offsets, channels, end_sites, data, dt):
 
 
 def read(path: str | os.PathLike) -> tuple[Skeleton, Clip]:
-    """Read a BVH file. Missing or unreadable files raise :class:`BvhError` too."""
+    """Read a BVH file. Missing, unreadable, oversized or non-UTF-8 files raise
+    :class:`BvhError` too."""
     p = Path(path)
+    return parse(_decode(_read_bytes(p), str(p)), str(p))
+
+
+def _read_bytes(p: Path) -> bytes:
     try:
-        text = p.read_text(encoding="utf-8", errors="strict")
+        with open(p, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            if size > MAX_FILE_BYTES:
+                raise BvhError(f"file of {size} bytes is beyond {MAX_FILE_BYTES} (MAX_FILE_BYTES)",
+                               None, str(p))
+            # read one byte more than allowed: a growing file or a device cannot exceed it
+            data = f.read(MAX_FILE_BYTES + 1)
     except FileNotFoundError:
         raise BvhError("file not found", None, str(p)) from None
-    except (OSError, UnicodeDecodeError) as e:
+    except OSError as e:
         raise BvhError(f"cannot read file ({e.__class__.__name__})", None, str(p)) from None
-    return parse(text, str(p))
+    if len(data) > MAX_FILE_BYTES:
+        raise BvhError(f"file is beyond {MAX_FILE_BYTES} bytes (MAX_FILE_BYTES)", None, str(p))
+    return data
+
+
+def _decode(data: bytes, path: str) -> str:
+    """UTF-8 text (a byte-order mark is dropped); else where the first bad byte is."""
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise BvhError("cannot read file: UTF-16 text, expected UTF-8", 1, path)
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        line_start = data.rfind(b"\n", 0, e.start) + 1
+        raise BvhError(f"cannot read file: not UTF-8 text (byte 0x{data[e.start]:02x} at column "
+                       f"{e.start - line_start + 1}, byte offset {e.start})",
+                       data.count(b"\n", 0, e.start) + 1, path) from None
 
 
 def _fmt(v: float) -> str:
