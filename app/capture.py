@@ -27,8 +27,7 @@ def write_png(path: str | Path, image: np.ndarray) -> Path:
     """Write a PNG atomically (temp file in the same folder, then rename)."""
     import imageio.v3 as iio
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    from engine.atomic import atomic_output
+    from engine.atomic import atomic_output   # refuses a missing folder: a typo makes no tree
     with atomic_output(path) as tmp:
         iio.imwrite(tmp, image, extension=".png")
     return path
@@ -82,7 +81,8 @@ def atomic_folder(path: str | os.PathLike):
     target = Path(path)
     if target.exists() and (not target.is_dir() or any(target.iterdir())):
         raise FileExistsError(f"{target} already exists")
-    target.parent.mkdir(parents=True, exist_ok=True)
+    if not target.parent.is_dir():   # one new folder, never a whole tree from a typo
+        raise FileNotFoundError(f"{target}: folder {target.parent} does not exist")
     tmp = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
     try:
         yield tmp

@@ -3,8 +3,11 @@ module exposing ``register(cli)``; modules import heavy libraries lazily."""
 from __future__ import annotations
 
 import importlib
+import sys
 
 import typer
+
+from app.errors import one_line
 
 cli = typer.Typer(add_completion=False, no_args_is_help=False,
                   help="Hitpoint: adapt motion-captured cricket shots to any hit point.")
@@ -36,5 +39,31 @@ def _default(ctx: typer.Context):
         ctx.invoke(view)
 
 
-def main():
-    cli()
+def run(argv=None) -> int:
+    """Run the command line ``argv`` (default: ``sys.argv[1:]``); its exit status.
+    Click's usage errors (unknown or missing option, a value of the wrong type)
+    become one ``error:`` line and status 2 like every other bad input, instead of
+    the several-line box typer prints; ``--help`` is untouched."""
+    command = typer.main.get_command(cli)
+    try:
+        status = command.main(args=argv, prog_name="hitpoint", standalone_mode=False)
+    except typer.TyperException as e:        # click's UsageError, BadParameter, NoSuchOption, ...
+        ctx = getattr(e, "ctx", None)
+        where = ctx.command_path if ctx is not None else _command_path(command, argv)
+        print(f"error: {where}: {one_line(e.format_message())}", file=sys.stderr)
+        return 2
+    except typer.Abort:                      # end of input at a prompt
+        print("error: aborted", file=sys.stderr)
+        return 2
+    return status if isinstance(status, int) else 0
+
+
+def _command_path(command, argv) -> str:
+    """``hitpoint SUB`` for an error click raised before it made the sub-command's context."""
+    args = sys.argv[1:] if argv is None else list(argv)
+    sub = args[0] if args and args[0] in getattr(command, "commands", {}) else None
+    return f"hitpoint {sub}" if sub else "hitpoint"
+
+
+def main(argv=None):
+    sys.exit(run(argv))

@@ -2,14 +2,16 @@
 from __future__ import annotations
 
 import json
-import math
 import os
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from app.errors import UserError, cli_errors
+from app.errors import UserError, cli_errors, number, position, shorten
+from app.errors import falloff as falloff_cm
+
+WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 
 
 def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
@@ -118,7 +120,7 @@ def parse_args(args: list[str]) -> dict:
     while i < len(args):
         flag, _, inline = args[i].partition("=")
         if flag not in _FLAGS:
-            raise UserError(f"unknown option {args[i]!r} (see hitpoint adapt --help)")
+            raise UserError(f"unknown option {shorten(args[i])!r} (see hitpoint adapt --help)")
         n = _FLAGS[flag]
         vals = [inline] if inline else args[i + 1:i + 1 + n]
         if len(vals) < n or any(v.startswith("--") for v in vals):
@@ -126,27 +128,18 @@ def parse_args(args: list[str]) -> dict:
         got[flag] = vals
         i += 1 + (0 if inline else n)
 
-    def num(flag, v, kind=float):
-        try:
-            x = kind(v)
-        except ValueError:
-            raise UserError(f"{flag}: {v!r} is not a number") from None
-        if not math.isfinite(x):
-            raise UserError(f"{flag} must be finite numbers, got {v}")
-        return x
-
     out = {"target": None, "shot_name": None, "hit": None, "falloff": 90.0, "wrist_dof": 0,
            "solver": "ccd", "out": None}
     if "--target" in got:
-        out["target"] = [num("--target", v) for v in got["--target"]]
+        out["target"] = position("--target", got["--target"])
     if "--hit" in got:
-        out["hit"] = [num("--hit", v) for v in got["--hit"]]
+        out["hit"] = position("--hit", got["--hit"])
     if "--shot" in got:
         out["shot_name"] = got["--shot"][0]
     if "--falloff" in got:
-        out["falloff"] = num("--falloff", got["--falloff"][0])
+        out["falloff"] = falloff_cm("--falloff", got["--falloff"][0])
     if "--wrist-dof" in got:
-        out["wrist_dof"] = int(num("--wrist-dof", got["--wrist-dof"][0]))
+        out["wrist_dof"] = number("--wrist-dof", got["--wrist-dof"][0], choices=WRIST_DOFS)
     if "--solver" in got:
         out["solver"] = got["--solver"][0]
     if "--out" in got:

@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from app.errors import UserError, cli_errors
+from app.cmd_render import check_png_out, save_png_atomic
+from app.errors import MAX_POSITION_CM, UserError, cli_errors, numbers, shorten
+from app.errors import falloff as falloff_cm
 
 DISSERTATION = {"dof0": 0.307, "dof2": 0.398, "source": "Table 2.1"}
 PARTS = ("body", "upper")
@@ -40,6 +42,14 @@ def register(cli: typer.Typer) -> None:
         from engine.library import find_shot, load_library
         from engine.rig import default_rig
 
+        if strip is not None:
+            check_png_out(strip, "--components-strip")
+            if part not in PARTS:
+                raise UserError(f"--part must be one of {', '.join(PARTS)}, got {shorten(part)!r}")
+        if style:
+            from engine.adapt import AdaptSettings, check_settings
+            offsets_cm, falloff = _parse_offsets(offsets), falloff_cm("--falloff", falloff)
+            check_settings(AdaptSettings(falloff=falloff, solver=solver))
         rig = default_rig()
         shots = load_library(library, rig)
         if not shots:
@@ -47,11 +57,9 @@ def register(cli: typer.Typer) -> None:
         if shot:
             shots = [find_shot(shots, n) for n in shot]
         if style:
-            print(json.dumps(style_report(rig, shots, _parse_offsets(offsets), falloff, solver, pcs), indent=1))
+            print(json.dumps(style_report(rig, shots, offsets_cm, falloff, solver, pcs), indent=1))
             return
         if strip is not None:
-            if part not in PARTS:
-                raise UserError(f"--part must be one of {', '.join(PARTS)}, got {part!r}")
             info = write_components_strip(rig, shots[0], strip, part)
             print(json.dumps(info, indent=1))
             return
@@ -117,12 +125,13 @@ def multi_report(rig, shots) -> dict:
 
 # ---------------------------------------------------------------- style error
 def _parse_offsets(text: str) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise UserError(f"--offsets must be comma-separated numbers in cm, got {text!r}") from None
-    if not vals or not all(np.isfinite(vals)) or any(v <= 0 for v in vals):
-        raise UserError(f"--offsets must be positive finite numbers in cm, got {text!r}")
+    """``--offsets`` "15,30": hit-point offsets in cm, each in (0, MAX_POSITION_CM]."""
+    vals = [v for v in text.split(",") if v.strip()]
+    if not vals:
+        raise UserError(f"--offsets must be comma-separated numbers in cm, got {shorten(text)!r}")
+    vals = numbers("--offsets", vals, 0.0, MAX_POSITION_CM)
+    if 0.0 in vals:
+        raise UserError("--offsets must be positive (cm), got 0")
     return vals
 
 
@@ -206,10 +215,7 @@ def write_components_strip(rig, shot, path: Path, part: str = "upper", cell: int
     """Figure 3.2: rows PC1..PC3, columns -3..+3 SD. Uses the renderer when it is
     available, else stick figures drawn with Pillow."""
     path = Path(path)
-    if path.suffix.lower() != ".png":
-        raise UserError(f"--components-strip: {path} must end in .png")
-    if not path.parent.exists():
-        raise UserError(f"--components-strip: folder {path.parent} does not exist")
+    check_png_out(path, "--components-strip")
     sds = (-3, -2, -1, 0, 1, 2, 3)
     p, root, rot = components_poses(rig, shot.clip, part, sds)
     method = "renderer"
@@ -219,16 +225,10 @@ def write_components_strip(rig, shot, path: Path, part: str = "upper", cell: int
         method = f"stick figures ({type(e).__name__})"
         img = _render_strip_sticks(rig, root, rot, cell)
     img = _label_strip(img, shot.name, part, p, sds, cell)
-    _atomic_png(img, path)
+    save_png_atomic(img, path)
     return {"shot": shot.name, "part": part, "file": str(path), "method": method,
             "rows": [f"PC{k + 1}" for k in range(root.shape[0])], "columns_sd": list(sds),
             "variance_3pcs": round(float(p.cumulative[min(2, p.num_components - 1)]), 4)}
-
-
-def _atomic_png(img, path: Path) -> None:
-    from engine.atomic import atomic_output
-    with atomic_output(path) as tmp:
-        img.save(tmp, format="PNG")
 
 
 def _view_axes():

@@ -8,11 +8,16 @@ the sheet.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 import typer
 
-from app.errors import UserError, cli_errors
+from app.cmd_adapt import WRIST_DOFS
+from app.errors import UserError, cli_errors, number, position
+from app.errors import falloff as falloff_cm
+
+MAX_STRIP_FRAMES = 64
 
 LABEL_H = 26
 TITLE_H = 34
@@ -144,11 +149,22 @@ def render_strip(shot, rig, count: int, cell: tuple[int, int], adapted=None):
     return sheet
 
 
-def save_png_atomic(img, out: Path) -> None:
-    from engine.atomic import atomic_output
+def check_png_out(out: Path, option: str = "--out") -> None:
+    """UserError before any work for a PNG output the command cannot write."""
     out = Path(out)
-    if not out.parent.exists():
-        raise UserError(f"{out}: directory {out.parent} does not exist")
+    if out.suffix.lower() != ".png":
+        raise UserError(f"{option} {out}: expected a .png file")
+    folder = out.parent if str(out.parent) else Path(".")
+    if not folder.is_dir():
+        raise UserError(f"{option} {out}: folder {folder} does not exist")
+    if out.is_dir():
+        raise UserError(f"{option} {out} is a folder")
+
+
+def save_png_atomic(img, out: Path) -> None:
+    """A PIL image as PNG, atomically (see engine.atomic)."""
+    from engine.atomic import atomic_output
+    check_png_out(out)
     with atomic_output(out) as tmp:
         img.save(tmp, format="PNG")
 
@@ -161,9 +177,9 @@ def register(cli: typer.Typer) -> None:
         out: Path = typer.Option(..., "--out", help="PNG file to write."),
         frames: int = typer.Option(9, "--frames", help="Number of frames on the sheet (the hit frame is always one)."),
         size: str = typer.Option("260x340", "--size", help="Size of one cell, WIDTHxHEIGHT pixels."),
-        hit: tuple[float, float, float] = typer.Option((float("nan"),) * 3, "--hit",
-                                                       help="Adapt the shot to this hit point X Y Z (cm) first.",
-                                                       show_default=False),
+        hit: Optional[tuple[float, float, float]] = typer.Option(None, "--hit",
+                                                                 help="Adapt the shot to this hit point X Y Z (cm) first.",
+                                                                 show_default=False),
         falloff: float = typer.Option(90.0, "--falloff", help="IK falloff in cm (with --hit)."),
         wrist_dof: int = typer.Option(0, "--wrist-dof", help="Left wrist DOF, 0 or 2 (with --hit)."),
     ):
@@ -171,19 +187,18 @@ def register(cli: typer.Typer) -> None:
         from engine.library import find_shot, load_library
         from engine.rig import default_rig
 
-        if not 1 <= frames <= 64:
-            raise UserError(f"--frames {frames}: expected 1..64")
-        if out.suffix.lower() != ".png":
-            raise UserError(f"--out {out}: expected a .png file")
+        number("--frames", frames, 1, MAX_STRIP_FRAMES, integer=True)
+        check_png_out(out)
         cell = parse_size(size)
+        hit = None if hit is None else position("--hit", hit)
+        settings = dict(falloff=falloff_cm("--falloff", falloff),
+                        wrist_dof=number("--wrist-dof", wrist_dof, choices=WRIST_DOFS))
         rig = default_rig()
         s = find_shot(load_library(rig=rig), shot)
         adapted = None
-        if not all(np.isnan(hit)):
+        if hit is not None:
             from engine.adapt import Adapter, AdaptSettings
-            if not np.all(np.isfinite(hit)):
-                raise UserError("--hit must be three finite numbers (cm)")
-            adapted = Adapter(rig, s).adapt(np.array(hit, float), AdaptSettings(falloff=falloff, wrist_dof=wrist_dof))
+            adapted = Adapter(rig, s).adapt(np.array(hit, float), AdaptSettings(**settings))
         img = render_strip(s, rig, frames, cell, adapted)
         save_png_atomic(img, out)
         print(f"wrote {out} ({img.width}x{img.height}, frames {', '.join(map(str, strip_frames(s.num_frames, s.hit_frame, frames)))})")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from app.errors import UserError, cli_errors
+from app.errors import MAX_FPS, MIN_FPS, UserError, cli_errors, number
 
 
 def register(cli: typer.Typer) -> None:
@@ -33,8 +33,6 @@ def register(cli: typer.Typer) -> None:
         at "abort_frame") and heads straight for the rest pose. Prints a JSON
         summary (frames, clean-up errors).
         """
-        import numpy as np
-
         from engine import bvh, cleanup, synth
         from engine import pca as pcam
         from engine.library import find_shot, load_library
@@ -60,8 +58,8 @@ def register(cli: typer.Typer) -> None:
             spec = synth.parse_path_spec(obj)
         except ValueError as e:
             raise UserError(f"{path}: {e}") from None
-        if fps is not None and not (np.isfinite(fps) and fps > 0):
-            raise UserError(f"--fps must be positive, got {fps}")
+        if fps is not None:
+            fps = number("--fps", fps, MIN_FPS, MAX_FPS)
 
         rig = default_rig()
         src = find_shot(load_library(library, rig), shot)

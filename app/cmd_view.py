@@ -8,9 +8,11 @@ from typing import Annotated, Optional, Tuple
 
 import typer
 
-from app.errors import UserError, cli_errors
+from app.errors import UserError, cli_errors, number
 
 HEADLESS_DT = 1.0 / 60.0   # headless playback advances a fixed 60 Hz step: reproducible runs
+MIN_SIDE_PX, MAX_SIDE_PX = 200, 8192    # window / framebuffer side
+MAX_FRAMES = 1_000_000     # --frames: over four hours at 60 Hz
 
 
 def register(cli: typer.Typer) -> None:
@@ -34,17 +36,14 @@ def view(
     """Open the viewer: drag the red-and-white target, the shot adapts every frame."""
     started = time.perf_counter()
     w, h = _parse_size(size)
-    if frames < 0:
-        raise UserError("--frames must be >= 0")
+    frames = number("--frames", frames, 0, MAX_FRAMES, integer=True)
     player = None
     if script is not None:
         from app.script import ScriptPlayer, load_script
         player = ScriptPlayer(load_script(script), str(script))
     if library is not None and not library.is_file():
         raise UserError(f"{library}: shot library not found")
-    for out in (screenshot, stats):
-        if out is not None and not out.resolve().parent.is_dir():
-            raise UserError(f"{out}: folder does not exist")
+    _check_outputs(screenshot, stats)
     from app.viewer import App
     from app.window import DisplayError
     try:
@@ -53,7 +52,11 @@ def view(
         raise UserError(str(e)) from None
     try:
         if headless or frames or player is not None:
+            if headless:
+                _refuse_failures(app)
             run_headless(app, frames, player)
+            if headless:
+                _refuse_failures(app)
         else:
             app.run()
         if screenshot is not None:
@@ -86,6 +89,30 @@ def run_headless(app, frames: int, player=None) -> None:
 
 def _parse_size(size) -> tuple[int, int]:
     w, h = size if size else (1280, 720)
-    if not (200 <= w <= 8192 and 200 <= h <= 8192):
-        raise UserError(f"--size {w} {h}: each side must be 200..8192 pixels")
-    return int(w), int(h)
+    return tuple(number("--size", side, MIN_SIDE_PX, MAX_SIDE_PX, integer=True) for side in (w, h))
+
+
+def _check_outputs(screenshot: Optional[Path], stats: Optional[Path]) -> None:
+    """UserError before the window opens for an output the run could not write."""
+    if screenshot is not None:
+        from app.cmd_render import check_png_out
+        check_png_out(screenshot, "--screenshot")
+    if stats is not None:
+        folder = stats.parent if str(stats.parent) else Path(".")
+        if not folder.is_dir():
+            raise UserError(f"--stats {stats}: folder {folder} does not exist")
+        if stats.is_dir():
+            raise UserError(f"--stats {stats} is a folder")
+
+
+def _refuse_failures(app) -> None:
+    """Headless, a missing piece (library, renderer) or an error reported while
+    the script ran (a failed render, screenshot or export) fails the run: one line,
+    exit 2, nothing written. A window shows the same messages and keeps running."""
+    state = app.state
+    broken = [f"{piece}: {why}" for piece, why in state.status.items() if why != "ok"]
+    if broken:
+        raise UserError(broken[0])
+    if state.errors:
+        more = f" (and {state.errors - 1} more)" if state.errors > 1 else ""
+        raise UserError(f"{state.messages[-1][1] if state.messages else 'an error'}{more}")
