@@ -81,6 +81,8 @@ def check_out(out: Path) -> None:
         raise UserError(f"--out: folder {folder} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise UserError(f"--out: folder {folder} is not writable")
+    if out.is_dir():
+        raise UserError(f"--out {out} is a folder")
 
 
 def _write(out: Path, rig, shot, a) -> None:

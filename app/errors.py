@@ -41,22 +41,27 @@ def number(option: str, value, low: float | None = None, high: float | None = No
     """``value`` (a number, or the text of one) checked for ``option``: finite,
     ``low <= value <= high``, a whole number with ``integer``, one of ``choices``.
     UserError names the option, the value (shortened) and what was expected."""
-    given = shorten(value)
+    given = shorten(str(value).strip())     # float() takes surrounding white space (and newlines)
     try:
         x = float(value)
     except (TypeError, ValueError):
         raise UserError(f"{option}: {given!r} is not a number") from None
     if not math.isfinite(x):
         raise UserError(f"{option} must be a finite number, got {given}")
+    if choices is not None and x not in choices:
+        raise UserError(f"{option} must be {' or '.join(map(str, choices))}, got {given}")
     if integer or choices is not None:
         if x != int(x):
             raise UserError(f"{option} must be a whole number, got {given}")
         x = int(x)
-    if choices is not None and x not in choices:
-        raise UserError(f"{option} must be {' or '.join(map(str, choices))}, got {given}")
     if (low is not None and x < low) or (high is not None and x > high):
-        raise UserError(f"{option} must be between {low:g} and {high:g}, got {given}")
+        raise UserError(f"{option} must be between {_plain(low)} and {_plain(high)}, got {given}")
     return x
+
+
+def _plain(limit: float) -> str:
+    """A limit as people write it: 1000000, 0.1 (not 1e+06)."""
+    return str(int(limit)) if float(limit).is_integer() else f"{limit:g}"
 
 
 def numbers(option: str, values, low: float | None = None, high: float | None = None) -> list[float]:
