@@ -8,6 +8,9 @@ from pathlib import Path
 import typer
 
 from app.errors import MAX_FPS, MIN_FPS, UserError, cli_errors, number
+from app.jsonfile import read_json
+
+MAX_PATH_FILE_BYTES = 16_000_000   # a path of MAX_PATH_POINTS timed points is ~5 MB of JSON
 
 
 def register(cli: typer.Typer) -> None:
@@ -44,16 +47,7 @@ def register(cli: typer.Typer) -> None:
             raise UserError(f"--out {out}: folder {out.parent} does not exist")
         if out.is_dir():
             raise UserError(f"--out {out} is a folder")
-        try:
-            obj = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as e:
-            raise UserError(f"{path}: not valid JSON (line {e.lineno}: {e.msg})") from None
-        except UnicodeDecodeError:
-            raise UserError(f"{path}: not a UTF-8 text file") from None
-        except FileNotFoundError:
-            raise UserError(f"{path}: file not found") from None
-        except IsADirectoryError:
-            raise UserError(f"{path} is a folder, not a path file") from None
+        obj = read_json(path, "path file", MAX_PATH_FILE_BYTES)
         try:
             spec = synth.parse_path_spec(obj)
         except ValueError as e:
@@ -65,10 +59,13 @@ def register(cli: typer.Typer) -> None:
         src = find_shot(load_library(library, rig), shot)
         space = pcam.fit_clip(rig, src.clip, "body")
         sections = synth.shot_sections(src.fk[1][:, rig.bat_joint], src.hit_frame)
-        points = synth.path_from_spec(spec, space, sections)
         rate = fps or spec.fps or float(src.clip.fps)
-        anim = synth.synthesise(space, points, frames=None if spec.times is not None else src.num_frames,
-                                times=spec.times, fps=rate)
+        try:    # bounds that depend on the shot (abort frame) or the rate (frames of a timed path)
+            points = synth.path_from_spec(spec, space, sections)
+            anim = synth.synthesise(space, points, frames=None if spec.times is not None else src.num_frames,
+                                    times=spec.times, fps=rate)
+        except ValueError as e:
+            raise UserError(f"{path}: {e}") from None
         summary = {"shot": src.name, "out": str(out), "frames": anim.num_frames, "fps": round(rate, 4),
                    "path": spec.preset or f"{len(points)} points" + (" with timestamps" if spec.times is not None else ""),
                    "variance_2pcs": round(float(space.cumulative[min(1, space.num_components - 1)]), 4)}
@@ -78,5 +75,6 @@ def register(cli: typer.Typer) -> None:
             res = cleanup.cleanup(rig, src.skeleton, anim, src.clip, fix_hand, plant_feet)
             anim = res.clip
             summary["cleanup"] = {k: round(v, 3) if isinstance(v, float) else v for k, v in res.summary().items()}
+        synth.check_finite_clip(anim)       # ValueError: one line from cli_errors, nothing written
         bvh.write(out, src.skeleton, anim)
         print(json.dumps(summary, indent=1))

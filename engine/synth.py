@@ -14,16 +14,29 @@ the follow-through.
 """
 from __future__ import annotations
 
+import reprlib
 from dataclasses import dataclass
 
 import numpy as np
 
+from .bvh import quoted
 from .pca import ShotPCA
 from .skeleton import Clip
 
 PRESETS = ("exaggerated", "toned_down", "aborted")
 DEFAULT_AMOUNT = {"exaggerated": 0.4, "toned_down": 0.4, "aborted": 0.5}
 SECTION_NAMES = ("preparation", "stroke", "return")
+
+# Bounds of a path (the messages name them). A path file is user input: without
+# them a huge timestamp asks for billions of frames and a score near 1e308
+# overflows the pose to infinity.
+MAX_PATH_POINTS = 100_000          # points of a drawn or written path
+MAX_PATH_SECONDS = 600.0           # last timestamp - first: ten minutes of animation
+MAX_SYNTH_FRAMES = int(MAX_PATH_SECONDS * 60) + 1   # ten minutes at 60 fps, both ends (~4 s, 400 MB to make)
+MAX_ABS_SCORE = 1_000.0            # |PC score|: the bundled shots stay within ~12 standardised
+                                   # units, so this is ~100x any real shot and every pose stays finite
+PATH_FPS_RANGE = (1.0, 1000.0)     # frames per second of a timed path
+MAX_EXAGGERATION = 10.0            # "exaggerated" amount: radius x 11 at most
 
 
 # ------------------------------------------------------------------- sections
@@ -79,33 +92,71 @@ def resample_path(points: np.ndarray, frames: int | None = None, times: np.ndarr
 
     With ``times (N,)`` (seconds, non-decreasing) the frames follow that
     timing at ``fps``; otherwise the points are taken as evenly spaced in time
-    and stretched over ``frames`` frames.
+    and stretched over ``frames`` frames. ValueError for a path out of bounds
+    (see :func:`check_scores`) or more than MAX_SYNTH_FRAMES frames.
     """
-    p = np.asarray(points, float)
-    if p.ndim != 2 or p.shape[0] < 1:
-        raise ValueError("a path needs at least one point of scores")
-    if not np.all(np.isfinite(p)):
-        raise ValueError("path contains NaN or infinity")
+    p = check_scores(points)
     N = p.shape[0]
     if times is not None:
-        t = np.asarray(times, float)
-        if t.shape != (N,) or not np.all(np.isfinite(t)):
-            raise ValueError("path timestamps must be one finite number per point")
-        if np.any(np.diff(t) < 0):
-            raise ValueError("path timestamps must not decrease")
-        if not fps > 0:
-            raise ValueError("fps must be positive")
-        F = int(round((t[-1] - t[0]) * fps)) + 1
+        t = check_times(times, N)
+        F = frame_count(t, fps)
         u = t[0] + np.arange(F) / fps
         return np.stack([np.interp(u, t, p[:, c]) for c in range(p.shape[1])], axis=1)
-    if frames is None or frames < 1:
-        raise ValueError("the number of frames must be at least 1")
+    if frames is None or not 1 <= frames <= MAX_SYNTH_FRAMES:
+        raise ValueError(f"the number of frames must be 1..{MAX_SYNTH_FRAMES} (MAX_SYNTH_FRAMES), got {frames}")
     if N == 1:
         return np.repeat(p, frames, axis=0)
     u = np.linspace(0.0, N - 1, frames)
     i = np.minimum(u.astype(np.int64), N - 2)
     w = (u - i)[:, None]
     return p[i] * (1 - w) + p[i + 1] * w
+
+
+def check_scores(points) -> np.ndarray:
+    """``points`` as an ``(N, d)`` float array: 1..MAX_PATH_POINTS points, every
+    score finite and within +-MAX_ABS_SCORE; else ValueError naming the point."""
+    p = np.asarray(points, float)
+    if p.ndim != 2 or p.shape[0] < 1 or p.shape[1] < 1:
+        raise ValueError("a path needs at least one point of scores")
+    if p.shape[0] > MAX_PATH_POINTS:
+        raise ValueError(f"a path has at most {MAX_PATH_POINTS} points (MAX_PATH_POINTS), got {p.shape[0]}")
+    bad = np.flatnonzero(~(np.abs(p) <= MAX_ABS_SCORE).all(axis=1))   # NaN fails the test too
+    if len(bad):
+        raise ValueError(f"point {bad[0]}: scores must be finite and within +-{MAX_ABS_SCORE:g} (MAX_ABS_SCORE), "
+                         f"got {_shown(p[bad[0]].tolist())}")
+    return p
+
+
+def check_times(times, count: int) -> np.ndarray:
+    """``times`` as ``count`` finite, non-decreasing seconds spanning at most
+    MAX_PATH_SECONDS; else ValueError."""
+    t = np.asarray(times, float)
+    if t.shape != (count,):
+        raise ValueError(f"a timed path needs one timestamp per point ({count}), got {t.size}")
+    if not np.all(np.isfinite(t)):
+        raise ValueError("path timestamps must be finite numbers")
+    with np.errstate(over="ignore", invalid="ignore"):
+        back = np.flatnonzero(np.diff(t) < 0)
+    if len(back):
+        raise ValueError(f"path timestamps must not decrease (point {back[0] + 1}: {t[back[0] + 1]:g} s "
+                         f"after {t[back[0]]:g} s)")
+    with np.errstate(over="ignore"):              # -1e308 .. 1e308 spans inf: refused below
+        span = t[-1] - t[0]
+    if not span <= MAX_PATH_SECONDS:
+        raise ValueError(f"a timed path lasts at most {MAX_PATH_SECONDS:g} s (MAX_PATH_SECONDS), got {span:.6g} s")
+    return t
+
+
+def frame_count(times: np.ndarray, fps: float) -> int:
+    """Frames of a timed path (checked by :func:`check_times`) at ``fps``: at most MAX_SYNTH_FRAMES."""
+    lo, hi = PATH_FPS_RANGE
+    if not lo <= fps <= hi:
+        raise ValueError(f"fps must be {lo:g}..{hi:g}, got {fps:g}")
+    F = int(round((times[-1] - times[0]) * fps)) + 1
+    if F > MAX_SYNTH_FRAMES:
+        raise ValueError(f"the path lasts {F} frames at {fps:g} fps, more than MAX_SYNTH_FRAMES "
+                         f"({MAX_SYNTH_FRAMES})")
+    return F
 
 
 # -------------------------------------------------------------------- presets
@@ -175,26 +226,62 @@ def preset_path(path: np.ndarray, preset: str, amount: float | None = None,
     amount in [0, 1); aborted: leave the path at ``abort_frame`` or, without
     it, at ``amount`` of the way from the backlift to the hit frame.
     """
-    if preset not in PRESETS:
-        raise ValueError(f"unknown preset {preset!r} (one of {', '.join(PRESETS)})")
-    amount = DEFAULT_AMOUNT[preset] if amount is None else float(amount)
-    if not np.isfinite(amount) or amount < 0:
-        raise ValueError(f"preset amount must be a number >= 0, got {amount}")
+    amount = check_preset(preset, amount, abort_frame)
     p = np.asarray(path, float)
     F = len(p)
     if preset == "aborted":
         if abort_frame is None:
-            if amount > 1:
-                raise ValueError(f"aborted: amount is a fraction of the stroke in [0, 1], got {amount}")
             a, h = (sections.backlift, sections.hit_frame) if sections else (0, F - 1)
             abort_frame = int(round(a + amount * max(h - a, 0)))
         if not 0 <= abort_frame < F:
             raise ValueError(f"abort frame {abort_frame} outside 0..{F - 1}")
         return aborted_path(p, abort_frame)
-    if preset == "toned_down" and amount >= 1:
-        raise ValueError(f"toned_down: amount must be below 1, got {amount}")
-    factor = 1 + amount if preset == "exaggerated" else 1 - amount
-    return scaled_path(p, factor, scale_envelope(F, sections))
+    return scaled_path(p, preset_factor(preset, amount), scale_envelope(F, sections))
+
+
+def check_preset(preset, amount=None, abort_frame=None) -> float:
+    """The amount a preset runs with (``amount`` or its default), after checking
+    the three: a known preset; an amount in 0..MAX_EXAGGERATION for exaggerated,
+    a fraction for the others (below 1 for toned_down, which would shrink the
+    path to a point); an abort frame, for aborted only, in 0..MAX_SYNTH_FRAMES-1."""
+    if not isinstance(preset, str) or preset not in PRESETS:
+        raise ValueError(f"unknown preset {_shown(preset)} (one of {', '.join(PRESETS)})")
+    if amount is None:
+        amount = DEFAULT_AMOUNT[preset]
+    high = MAX_EXAGGERATION if preset == "exaggerated" else 1.0
+    if not _is_number(amount) or not 0 <= amount <= high or (preset == "toned_down" and amount == 1):
+        limit = {"exaggerated": f"0..{MAX_EXAGGERATION:g} (MAX_EXAGGERATION)",
+                 "toned_down": "0..1, below 1"}.get(preset, "0..1")
+        raise ValueError(f"{preset}: 'amount' must be a number in {limit}, got {_shown(amount)}")
+    if abort_frame is not None:
+        if preset != "aborted":
+            raise ValueError(f"{preset}: 'abort_frame' belongs to the aborted preset only")
+        if not _is_whole(abort_frame) or not 0 <= abort_frame < MAX_SYNTH_FRAMES:
+            raise ValueError(f"aborted: 'abort_frame' must be a whole frame in 0..{MAX_SYNTH_FRAMES - 1}, "
+                             f"got {_shown(abort_frame)}")
+    return float(amount)
+
+
+def _is_number(v) -> bool:
+    """A finite real number (int or float, never a bool) that converts to float."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        return False
+    try:
+        return bool(np.isfinite(float(v)))
+    except OverflowError:          # an int beyond float range
+        return False
+
+
+def _shown(value) -> str:
+    """A user's value for a message, bounded however large it is (reprlib stops early)."""
+    try:
+        return quoted(value if isinstance(value, str) else reprlib.repr(value))
+    except ValueError:             # an int of more than 4300 digits has no repr
+        return f"a {type(value).__name__}"
+
+
+def _is_whole(v) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
 
 
 def preset_factor(preset: str, amount: float | None = None) -> float:
@@ -238,59 +325,81 @@ class PathSpec:
 def parse_path_spec(obj) -> PathSpec:
     """A path description from JSON: a list of ``[pc1, pc2]`` (or ``[pc1, pc2, t]``
     with t in seconds), ``{"points": [...], "times": [...], "fps": 30}`` or
-    ``{"preset": "exaggerated|toned_down|aborted", "amount": x, "abort_frame": n}``."""
+    ``{"preset": "exaggerated|toned_down|aborted", "amount": x, "abort_frame": n}``.
+    Every bound of the module is checked here; ValueError (one line) otherwise."""
     if isinstance(obj, dict):
-        if "preset" in obj:
-            unknown = set(obj) - {"preset", "amount", "abort_frame"}
-            if unknown:
-                raise ValueError(f"path: unknown key {sorted(unknown)[0]!r} next to 'preset'")
-            preset = obj["preset"]
-            if preset not in PRESETS:
-                raise ValueError(f"path: unknown preset {preset!r} (one of {', '.join(PRESETS)})")
-            amount = obj.get("amount")
-            if amount is not None and (isinstance(amount, bool) or not isinstance(amount, (int, float))):
-                raise ValueError("path: 'amount' must be a number")
-            af = obj.get("abort_frame")
-            if af is not None and (isinstance(af, bool) or not isinstance(af, int)):
-                raise ValueError("path: 'abort_frame' must be an integer frame")
-            return PathSpec(preset=preset, amount=amount, abort_frame=af)
-        if "points" not in obj:
-            raise ValueError("path: an object needs 'points' or 'preset'")
-        spec = parse_path_spec(obj["points"])
-        if "times" in obj:
-            spec.times = _numbers(obj["times"], "times")
-        if "fps" in obj:
-            spec.fps = float(_numbers([obj["fps"]], "fps")[0])
-            if not spec.fps > 0:
-                raise ValueError("path: 'fps' must be positive")
-        return spec
+        return _parse_preset(obj) if "preset" in obj else _parse_timed(obj)
     if not isinstance(obj, list) or not obj:
         raise ValueError("path: expected a non-empty list of [pc1, pc2] points or a preset object")
-    rows = []
+    if len(obj) > MAX_PATH_POINTS:
+        raise ValueError(f"path: at most {MAX_PATH_POINTS} points (MAX_PATH_POINTS), got {len(obj)}")
     for i, p in enumerate(obj):
-        if not isinstance(p, list) or len(p) not in (2, 3):
-            raise ValueError(f"path: point {i} must be [pc1, pc2] or [pc1, pc2, seconds]")
-        rows.append(_numbers(p, f"point {i}"))
-    if len({len(r) for r in rows}) != 1:
-        raise ValueError("path: either every point has a timestamp or none has")
-    arr = np.array(rows)
-    if arr.shape[1] == 3:
-        return PathSpec(points=arr[:, :2], times=arr[:, 2])
-    return PathSpec(points=arr)
+        if not isinstance(p, list) or len(p) not in (2, 3) or not all(map(_is_number, p)):
+            raise ValueError(f"path: point {i} must be [pc1, pc2] or [pc1, pc2, seconds] (finite numbers), "
+                             f"got {_shown(p)}")
+        if len(p) != len(obj[0]):
+            raise ValueError(f"path: point {i}: either every point has a timestamp or none has")
+    arr = np.array(obj, float)
+    try:
+        check_scores(arr[:, :2])
+        times = check_times(arr[:, 2], len(arr)) if arr.shape[1] == 3 else None
+    except ValueError as e:
+        raise ValueError(f"path: {e}") from None
+    return PathSpec(points=arr[:, :2], times=times)
 
 
-def _numbers(values, what: str) -> np.ndarray:
-    if not isinstance(values, list) or any(isinstance(v, bool) or not isinstance(v, (int, float))
-                                           for v in values):
-        raise ValueError(f"path: {what} must be a list of numbers")
-    arr = np.array(values, float)
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"path: {what} contains NaN or infinity")
-    return arr
+def _parse_preset(obj: dict) -> PathSpec:
+    _refuse_unknown_keys(obj, {"preset", "amount", "abort_frame"}, "'preset'")
+    try:
+        check_preset(obj["preset"], obj.get("amount"), obj.get("abort_frame"))
+    except ValueError as e:
+        raise ValueError(f"path: {e}") from None
+    amount = obj.get("amount")
+    return PathSpec(preset=obj["preset"], amount=None if amount is None else float(amount),
+                    abort_frame=obj.get("abort_frame"))
+
+
+def _parse_timed(obj: dict) -> PathSpec:
+    """``{"points": [[pc1, pc2], ...], "times": [...], "fps": n}``."""
+    if "points" not in obj:
+        raise ValueError("path: an object needs 'points' or 'preset'")
+    _refuse_unknown_keys(obj, {"points", "times", "fps"}, "'points'")
+    if not isinstance(obj["points"], list):     # a nested object would recurse without end
+        raise ValueError("path: 'points' must be a list of [pc1, pc2] points")
+    spec = parse_path_spec(obj["points"])
+    if "times" in obj:
+        times = obj["times"]
+        if spec.times is not None:
+            raise ValueError("path: timestamps both in the points and in 'times'")
+        if not isinstance(times, list) or not all(map(_is_number, times)):
+            raise ValueError("path: 'times' must be a list of finite numbers (seconds)")
+        try:
+            spec.times = check_times(times, len(spec.points))
+        except ValueError as e:
+            raise ValueError(f"path: {e}") from None
+    if "fps" in obj:
+        lo, hi = PATH_FPS_RANGE
+        if not _is_number(obj["fps"]) or not lo <= obj["fps"] <= hi:
+            raise ValueError(f"path: 'fps' must be a number in {lo:g}..{hi:g}, got {_shown(obj['fps'])}")
+        spec.fps = float(obj["fps"])
+    return spec
+
+
+def _refuse_unknown_keys(obj: dict, known: set, beside: str) -> None:
+    unknown = sorted(map(str, set(obj) - known))
+    if unknown:
+        raise ValueError(f"path: unknown key {quoted(unknown[0])} next to {beside} "
+                         f"(known: {', '.join(sorted(known))})")
 
 
 def path_from_spec(spec: PathSpec, pca: ShotPCA, sections: Sections | None = None) -> np.ndarray:
     """The per-point score path ``(N, 2)`` a spec describes on this shot."""
     if spec.preset is not None:
-        return preset_path(source_path(pca), spec.preset, spec.amount, sections, spec.abort_frame)
-    return spec.points
+        return check_scores(preset_path(source_path(pca), spec.preset, spec.amount, sections, spec.abort_frame))
+    return check_scores(spec.points)
+
+
+def check_finite_clip(clip: Clip) -> None:
+    """The last guard before an animation is written: every value finite."""
+    if not (np.isfinite(clip.root_positions).all() and np.isfinite(clip.local_rotations).all()):
+        raise ValueError("the synthesised animation has non-finite values; nothing was written")
