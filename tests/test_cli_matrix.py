@@ -335,3 +335,57 @@ def test_headless_scripted_capture_into_a_missing_folder_exits_2(place):
     r = hitpoint("view", "--headless", "--script", script)
     assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and "screenshot" in r.stderr, r.stderr
     assert not (place / "no").exists()
+
+
+def test_headless_view_whose_renderer_failed_exits_2(place, capsys, monkeypatch):
+    import app.render.scene
+
+    def broken(*a, **k):
+        raise ValueError("bad mesh asset")
+    monkeypatch.setattr(app.render.scene, "SceneRenderer", broken)
+    line = assert_refused(place, capsys, ["view", "--headless", "--frames", "2", "--stats", "{d}/out/s.json"])
+    assert "renderer" in line and "bad mesh asset" in line
+
+
+def test_warnings_before_a_refusal_are_dropped_after_success_shown(capsys):
+    import warnings
+
+    import numpy as np
+
+    from app.errors import UserError, cli_errors
+
+    @cli_errors
+    def command(refuse):
+        np.float64(1.0) / np.float64(0.0)          # RuntimeWarning: divide by zero
+        warnings.warn("odd input", RuntimeWarning)
+        if refuse:
+            raise UserError("refused")
+
+    shown = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = lambda message, *a, **k: shown.append(str(message))
+        with pytest.raises(Exception):
+            command(True)
+        assert capsys.readouterr().err == "error: refused\n" and shown == []
+        command(False)
+    assert len(shown) == 2 and "odd input" in shown[1]
+
+
+@pytest.mark.parametrize("event", [
+    {"type": "screenshot", "frame": 1, "path": "{d}/no/dir/s.png"},
+    {"type": "export", "frame": 1, "dir": "{d}/no/dir/e", "formats": ["bvh"]},
+], ids=["screenshot", "export"])
+def test_scripted_capture_into_a_missing_folder_is_refused(place, capsys, event):
+    script = place / "script.json"
+    script.write_text(json.dumps([{k: str(v).format(d=place) if isinstance(v, str) else v
+                                   for k, v in event.items()}]))
+    line = assert_refused(place, capsys, ["view", "--headless", "--script", "{d}/script.json"])
+    assert event["type"] in line and "does not exist" in line
+
+
+def test_scripted_export_makes_one_new_folder(place, capsys):
+    script = place / "script.json"
+    script.write_text(json.dumps([{"type": "export", "frame": 1, "dir": str(place / "out" / "e"), "formats": ["bvh"]}]))
+    assert run(["view", "--headless", "--script", str(script)]) == 0, capsys.readouterr().err
+    assert [p.suffix for p in (place / "out" / "e").iterdir()] == [".bvh"]
