@@ -6,7 +6,9 @@ import time
 
 import typer
 
-from app.errors import cli_errors
+from app.errors import cli_errors, number
+
+MIN_REPS, MAX_REPS = 10, 100_000   # below 10 the p95 means nothing; above, a run takes hours
 
 
 def _stats(samples, scale: float) -> dict:
@@ -154,9 +156,10 @@ def register(cli: typer.Typer) -> None:
     @cli.command("bench")
     @cli_errors
     def bench(as_json: bool = typer.Option(False, "--json", help="Print JSON only."),
-              reps: int = typer.Option(200, "--reps", min=10, help="Timed repetitions per figure.")):
+              reps: int = typer.Option(200, "--reps", help="Timed repetitions per figure (10..100000).")):
         """Engine timings: one frame adapted (both arms), a whole shot, skinning
         matrices for one frame, and ikpy on the same left-arm chain (median, p95)."""
+        reps = number("--reps", reps, MIN_REPS, MAX_REPS, integer=True)
         res = run_bench(reps)
         if as_json:
             print(json.dumps(res))

@@ -18,6 +18,7 @@ from app.errors import UserError, cli_errors, number, position
 from app.errors import falloff as falloff_cm
 
 MAX_STRIP_FRAMES = 64
+MAX_SHEET_PIXELS = 64_000_000   # the whole contact sheet (about 190 MB of RGB)
 
 LABEL_H = 26
 TITLE_H = 34
@@ -190,6 +191,10 @@ def register(cli: typer.Typer) -> None:
         number("--frames", frames, 1, MAX_STRIP_FRAMES, integer=True)
         check_png_out(out)
         cell = parse_size(size)
+        sheet_px = cell[0] * frames * (2 * cell[1] + TITLE_H + LABEL_H)
+        if sheet_px > MAX_SHEET_PIXELS:
+            raise UserError(f"--frames {frames} of --size {size}: the sheet would be {sheet_px / 1e6:.0f} "
+                            f"megapixels, more than the limit of {MAX_SHEET_PIXELS / 1e6:.0f}")
         hit = None if hit is None else position("--hit", hit)
         settings = dict(falloff=falloff_cm("--falloff", falloff),
                         wrist_dof=number("--wrist-dof", wrist_dof, choices=WRIST_DOFS))

@@ -119,6 +119,7 @@ BAD = {
     "strip out suffix": ["render-strip", "--shot", SHOT, "--out", "{d}/out/r.jpg"],
     "strip out no folder": ["render-strip", "--shot", SHOT, "--out", "{d}/no/r.png"],
     "strip out folder": ["render-strip", "--shot", SHOT, "--out", "{d}/dir.png"],
+    "strip sheet huge": ["render-strip", "--shot", SHOT, "--out", "{d}/out/r.png", "--frames", "64", "--size", "4096x4096"],
     "strip unknown shot": ["render-strip", "--shot", "nosuch", "--out", "{d}/out/r.png"],
     "strip unknown option": ["render-strip", "--shot", SHOT, "--out", "{d}/out/r.png", "--bogus"],
     # adapt
@@ -144,6 +145,7 @@ BAD = {
     "adapt huge token": ["adapt", "--" + "x" * 5000],
     # bench
     "bench reps few": ["bench", "--reps", "2"],
+    "bench reps huge": ["bench", "--reps", "10000000000"],
     "bench reps text": ["bench", "--reps", "x"],
     "bench unknown option": ["bench", "--bogus"],
     # analyse
