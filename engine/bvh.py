@@ -40,6 +40,7 @@ _POS = ("Xposition", "Yposition", "Zposition")
 _TOKEN = re.compile(r"\S{1,%d}" % (MAX_TOKEN + 1))
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 _CHUNK_CHARS = 1 << 22   # motion data is converted 4 MB at a time: junk fails in its first chunk
+_EXACT_COUNT_CHARS = 1 << 22   # a frame line longer than this is not split to count its values
 
 
 def _printable(text: str, limit: int) -> str:
@@ -48,11 +49,13 @@ def _printable(text: str, limit: int) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in shown)
 
 
-def _quote(token: str) -> str:
+def quoted(token: str) -> str:
+    """A token for a message: in quotes, cut to MAX_QUOTE characters, escaped."""
     return f"'{_printable(token, MAX_QUOTE)}'"
 
 
-def _shown_path(path: str) -> str:
+def shown_path(path: str) -> str:
+    """A path for a message: its last MAX_PATH_SHOWN characters, escaped."""
     path = _printable(path, 10 ** 9)
     return path if len(path) <= MAX_PATH_SHOWN else "…" + path[-(MAX_PATH_SHOWN - 1):]
 
@@ -62,7 +65,7 @@ class BvhError(ValueError):
 
     def __init__(self, message: str, line: int | None = None, path: str | None = None):
         self.line = line
-        where = _shown_path(path) if path else "BVH"
+        where = shown_path(path) if path else "BVH"
         where += f", line {line}" if line else ""
         super().__init__(f"{where}: {message}")
 
@@ -93,30 +96,30 @@ class _Tokens:
         token = m.group()
         if len(token) > MAX_TOKEN:
             raise self.error(f"expected {what}, found a token longer than {MAX_TOKEN} characters "
-                             f"(MAX_TOKEN) {_quote(token)}")
+                             f"(MAX_TOKEN) {quoted(token)}")
         return token
 
     def expect(self, word: str) -> None:
         t = self.next(f"'{word}'")
         if t != word:
-            raise self.error(f"expected '{word}', found {_quote(t)}")
+            raise self.error(f"expected '{word}', found {quoted(t)}")
 
     def number(self, what: str, limit: float = math.inf, limit_name: str = "") -> float:
         t = self.next(what)
         try:
             v = float(t)
         except ValueError:
-            raise self.error(f"expected {what} (a number), found {_quote(t)}") from None
+            raise self.error(f"expected {what} (a number), found {quoted(t)}") from None
         if not math.isfinite(v):
-            raise self.error(f"expected {what} (a finite number), found {_quote(t)}")
+            raise self.error(f"expected {what} (a finite number), found {quoted(t)}")
         if abs(v) > limit:
-            raise self.error(f"{what} {_quote(t)} is beyond the limit ±{limit:g} ({limit_name})")
+            raise self.error(f"{what} {quoted(t)} is beyond the limit ±{limit:g} ({limit_name})")
         return v
 
     def integer(self, what: str) -> int:
         t = self.next(what)
         if not _INTEGER.fullmatch(t):
-            raise self.error(f"expected {what} (an integer), found {_quote(t)}")
+            raise self.error(f"expected {what} (an integer), found {quoted(t)}")
         return int(t)   # at most MAX_TOKEN digits: far below Python's int-digit limit
 
     def offset(self) -> list[float]:
@@ -143,13 +146,13 @@ def _channels(tk: _Tokens, name: str) -> list[str]:
     for _ in range(n):
         c = tk.next("a channel name")
         if c not in _ROT and c not in _POS:
-            raise tk.error(f"expected a channel name (Xposition..Zrotation), found {_quote(c)}")
+            raise tk.error(f"expected a channel name (Xposition..Zrotation), found {quoted(c)}")
         if c in chans:
-            raise tk.error(f"channel {_quote(c)} repeated in joint {_quote(name)}")
+            raise tk.error(f"channel {quoted(c)} repeated in joint {quoted(name)}")
         chans.append(c)
     rot = [c for c in chans if c in _ROT]
     if len(rot) not in (0, 3):
-        raise tk.error(f"joint {_quote(name)} needs 0 or 3 rotation channels, has {len(rot)}")
+        raise tk.error(f"joint {quoted(name)} needs 0 or 3 rotation channels, has {len(rot)}")
     return chans
 
 
@@ -157,9 +160,9 @@ def _open_joint(tk: _Tokens, h: _Hierarchy, parent: int) -> int:
     """Read a joint's name, '{', OFFSET and CHANNELS; its index."""
     name = tk.next("a joint name")
     if name in ("{", "}") or not name.isprintable():
-        raise tk.error(f"expected a joint name, found {_quote(name)}")
+        raise tk.error(f"expected a joint name, found {quoted(name)}")
     if name in h.names:
-        raise tk.error(f"duplicate joint name {_quote(name)}")
+        raise tk.error(f"duplicate joint name {quoted(name)}")
     if len(h.names) >= MAX_JOINTS:
         raise tk.error(f"more than {MAX_JOINTS} joints (MAX_JOINTS)")
     h.names.append(name)
@@ -196,7 +199,7 @@ def _parse_hierarchy(tk: _Tokens) -> _Hierarchy:
         elif t == "End":
             _end_site(tk, h, open_joints[-1])
         else:
-            raise tk.error(f"expected 'JOINT', 'End Site' or '}}', found {_quote(t)}")
+            raise tk.error(f"expected 'JOINT', 'End Site' or '}}', found {quoted(t)}")
     return h
 
 
@@ -223,21 +226,20 @@ def _frame_time(tk: _Tokens) -> float:
     dt = tk.number("the frame time")
     if not MIN_FRAME_TIME <= dt <= MAX_FRAME_TIME:
         raise tk.error(f"frame time must be {MIN_FRAME_TIME:g}..{MAX_FRAME_TIME:g} s "
-                       f"(MIN_FRAME_TIME..MAX_FRAME_TIME), found {_quote(str(dt))}")
+                       f"(MIN_FRAME_TIME..MAX_FRAME_TIME), found {quoted(str(dt))}")
     return dt
 
 
-def _chunk_end(text: str, start: int, path: str | None) -> int:
-    """End of the chunk from ``start``: at whitespace, so no token is cut."""
+def _chunk_end(text: str, start: int) -> int:
+    """End of the chunk from ``start``: at whitespace, so no token is cut (a token
+    longer than MAX_TOKEN may be: it is refused either way)."""
     cut = start + _CHUNK_CHARS
     if cut >= len(text):
         return len(text)
     for k in range(cut, max(start, cut - MAX_TOKEN - 1), -1):
         if text[k].isspace():
             return k
-    raise BvhError(f"expected a channel value, found a token longer than {MAX_TOKEN} "
-                   f"characters (MAX_TOKEN) {_quote(text[cut - MAX_TOKEN:cut])}",
-                   _line_at(text, cut), path)
+    return cut
 
 
 class _Motion:
@@ -254,34 +256,51 @@ class _Motion:
         m = next(islice(_TOKEN.finditer(self.text, pos), k - first, None))
         frame = k // max(self.num_channels, 1)
         return BvhError(f"expected a channel value of frame {frame} {msg}, found "
-                        f"{_quote(m.group())}",
+                        f"{quoted(m.group())}",
                         _line_at(self.text, m.start()), self.path)
 
     def count_error(self, num_frames: int, stop: int) -> BvhError:
-        """The first frame line (before ``stop``) whose number of values is wrong."""
-        lines, k, pos = 0, 0, self.start
+        """Why the values do not fill ``num_frames`` lines: the first line (before
+        ``stop``) with a wrong count, else the first line beyond the count, else
+        how many lines there are. Stops early, so junk costs one chunk."""
+        lines, pos = 0, self.start
         while pos < stop:
             end = self.text.find("\n", pos, stop)
             end = stop if end < 0 else end
-            count = len(self.text[pos:end].split())
+            count, exact = self._count_values(pos, end)
             if count and count != self.num_channels:
-                return BvhError(f"frame {k} has {count} values, expected {self.num_channels} "
+                shown = count if exact else f"more than {self.num_channels}"
+                return BvhError(f"frame {lines} has {shown} values, expected {self.num_channels} "
                                 "(one per channel)", _line_at(self.text, pos), self.path)
-            lines, k, pos = lines + (count > 0), k + (count > 0), end + 1
+            if count and lines == num_frames:
+                return BvhError(f"more than {num_frames} frame lines (the 'Frames:' count)",
+                                _line_at(self.text, pos), self.path)
+            lines, pos = lines + (count > 0), end + 1
         return BvhError(f"found {lines} frame lines, expected {num_frames} (the 'Frames:' count)",
                         _line_at(self.text, max(stop - 1, self.start)), self.path)
+
+    def _count_values(self, start: int, end: int) -> tuple[int, bool]:
+        """Tokens in ``text[start:end]`` and whether that is exact: a long line
+        stops counting at one too many."""
+        if end - start <= _EXACT_COUNT_CHARS:
+            return len(self.text[start:end].split()), True
+        limit = self.num_channels + 1
+        count = sum(1 for _ in islice(_TOKEN.finditer(self.text, start, end), limit))
+        return count, count < limit
 
     def values(self, num_frames: int) -> np.ndarray:
         """All ``num_frames * num_channels`` numbers, converted a chunk at a time."""
         expected = num_frames * self.num_channels
         parts, n, pos = [], 0, self.start
         while pos < len(self.text):
-            end = _chunk_end(self.text, pos, self.path)
+            end = _chunk_end(self.text, pos)
             tokens = self.text[pos:end].split()
-            if n + len(tokens) > expected:
-                raise self.count_error(num_frames, end)
+            room = expected - n   # a bad value within the count comes first, then a count error
             self.chunks.append((pos, n))
-            parts.append(self._convert(tokens, n))
+            parts.append(self._convert(tokens if len(tokens) <= room else tokens[:room], n))
+            if len(tokens) > room:   # the scan covers the whole line the chunk ends in
+                line_end = self.text.find("\n", end)
+                raise self.count_error(num_frames, len(self.text) if line_end < 0 else line_end)
             n, pos = n + len(tokens), end
         if n != expected:
             raise self.count_error(num_frames, len(self.text))
