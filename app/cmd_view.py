@@ -40,7 +40,7 @@ def view(
     player = None
     if script is not None:
         from app.script import ScriptPlayer, load_script
-        player = ScriptPlayer(load_script(script), str(script))
+        player = ScriptPlayer(load_script(script), str(script), frame_budget=frames or None)
     if library is not None and not library.is_file():
         raise UserError(f"{library}: shot library not found")
     _check_outputs(screenshot, stats)

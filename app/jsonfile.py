@@ -57,7 +57,7 @@ def _read_text(path: Path, what: str, max_bytes: int) -> str:
     if len(data) > max_bytes:
         raise UserError(f"{path}: larger than the {max_bytes // 1_000_000} MB a {what} may be")
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")         # a BOM (some Windows editors) is no error
     except UnicodeDecodeError as e:
         line = data.count(b"\n", 0, e.start) + 1
         raise UserError(f"{path}: not UTF-8 text (line {line}, byte {e.start}: {e.reason})") from None

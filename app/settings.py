@@ -2,11 +2,13 @@
 per-frame update (``app.update``) only reads it. Nothing derived lives here."""
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from app.errors import UserError, number, position, shorten
 from app.picking import TARGET_PLANE_Z, clamp_target
 
 FALLOFF_RANGE = (20.0, 200.0)       # cm; the dissertation's useful band is 70-110
@@ -18,6 +20,16 @@ RENDER_SCALE_RANGE = (0.4, 1.0)     # 3D view resolution / window resolution (sl
 SLOW_MOTION_FACTOR = 0.25
 GHOST_MODES = ("off", "mesh", "skeleton")
 SOLVERS = ("ccd", "dls")
+WRIST_DOFS = (0, 2)
+MAX_FRAME_SETTING = 1e6             # a playback frame far past any shot (playback clamps it to the shot)
+MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
+# What ``set`` checks beyond the type: ranges and choices per key.
+SETTING_RANGES = {"falloff": FALLOFF_RANGE, "iterations": ITERATIONS_RANGE, "tolerance": TOLERANCE_RANGE,
+                  "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING)}
+SETTING_CHOICES = {"solver": SOLVERS, "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
+# Fields that are no setting of the user's: requests the loop consumes (scripts have the
+# screenshot, export and key events for them) and the overlay group as a whole.
+NOT_SETTABLE = ("screenshot_requested", "export_requested", "reload_requested", "overlays")
 
 
 @dataclass
@@ -93,21 +105,61 @@ class ViewerSettings:
         return self.speed * (SLOW_MOTION_FACTOR if self.slow_motion else 1.0)
 
     def set(self, key: str, value) -> None:
-        """Set one setting by name (``overlays.flight`` for overlays) - used by scripts."""
+        """Set one setting by name (``overlays.flight`` for overlays) - used by scripts.
+        ``value`` goes through :func:`check_setting` (UserError if it is no such
+        setting or a wrong value); a value that passed it once never fails here."""
+        value = check_setting(key, value)
         obj, name = (self.overlays, key.split(".", 1)[1]) if key.startswith("overlays.") else (self, key)
-        if not hasattr(obj, name) or name.startswith("_"):
-            raise KeyError(f"unknown setting {key!r}")
-        current = getattr(obj, name)
-        if isinstance(current, bool):
-            value = bool(value)
-        elif isinstance(current, int):
-            value = int(value)
-        elif isinstance(current, float):
-            value = float(value)
-        elif isinstance(current, np.ndarray):
-            value = np.asarray(value, float)
-        setattr(obj, name, value)
+        setattr(obj, name, value.copy() if isinstance(value, np.ndarray) else value)
         self.sanitise()
+
+
+@functools.cache
+def setting_kinds() -> dict[str, str]:
+    """``{key: type name}`` of every setting ``set`` accepts: the dataclass fields of
+    ViewerSettings and (as ``overlays.NAME``) Overlays, but no method, private or
+    request field. The type names are the fields' annotations."""
+    kinds = {f.name: str(f.type) for f in fields(ViewerSettings) if f.name not in NOT_SETTABLE}
+    kinds.update({f"overlays.{f.name}": str(f.type) for f in fields(Overlays)})
+    return {k: t for k, t in kinds.items() if not k.rsplit(".", 1)[-1].startswith("_")}
+
+
+def check_setting(key, value):
+    """``value`` for setting ``key`` as it will be stored, or UserError naming both:
+    a bool only from true/false, an int from a whole JSON number, a float from a
+    finite one, each within its SETTING_RANGES; a string from SETTING_CHOICES;
+    the target as 3 finite numbers (cm); the pinned shot a name or null."""
+    kinds = setting_kinds()
+    if not isinstance(key, str) or key not in kinds:
+        top = [k for k in kinds if "." not in k]
+        groups = "|".join(k.split(".", 1)[1] for k in kinds if k.startswith("overlays."))
+        raise UserError(f"unknown setting {shorten(repr(key))} (known: {', '.join(top)}, overlays.{groups})")
+    kind, low_high = kinds[key], SETTING_RANGES.get(key, (None, None))
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise UserError(f"{key} must be true or false, got {shorten(repr(value))}")
+        return value
+    if kind in ("int", "float"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (kind == "int" and isinstance(value, float)):
+            raise UserError(f"{key} must be {'a whole number' if kind == 'int' else 'a number'}, "
+                            f"got {shorten(repr(value))}")
+        return number(key, value, *low_high, integer=kind == "int", choices=SETTING_CHOICES.get(key))
+    if kind == "str":
+        choices = SETTING_CHOICES[key]
+        if not isinstance(value, str) or value not in choices:
+            raise UserError(f"{key} must be {' or '.join(choices)}, got {shorten(repr(value))}")
+        return value
+    if kind == "np.ndarray":
+        if not isinstance(value, (list, tuple, np.ndarray)) or any(   # an array: a value this check returned
+                isinstance(v, bool) or not isinstance(v, (int, float)) for v in np.asarray(value, object).reshape(-1)):
+            raise UserError(f"{key} must be a list of 3 numbers (X Y Z cm), got {shorten(repr(value))}")
+        return np.array(position(key, value), float)
+    if kind == "str | None":
+        if value is not None and (not isinstance(value, str) or len(value) > MAX_SHOT_NAME_CHARS):
+            raise UserError(f"{key} must be a shot name (up to {MAX_SHOT_NAME_CHARS} characters) or null, "
+                            f"got {shorten(repr(value))}")
+        return value
+    raise UserError(f"{key} cannot be set by name")      # a field of a type added later
 
 
 def _finite(v, default):
