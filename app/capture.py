@@ -33,8 +33,71 @@ def write_png(path: str | Path, image: np.ndarray) -> Path:
     return path
 
 
-def default_screenshot_path() -> Path:
-    return Path.cwd() / time.strftime("hitpoint_%Y%m%d_%H%M%S.png")
+MAX_SAME_NAME = 10_000     # names tried for one millisecond before giving up (a folder full of them)
+MAX_STEM_CHARS = 60        # a shot name in a file name is cut to this and made filesystem-safe
+
+
+def safe_stem(text: str) -> str:
+    """``text`` usable in a file name anywhere: letters, digits, ``-`` and ``_`` only."""
+    stem = "".join(c if c.isalnum() or c in "-_" else "_" for c in str(text))[:MAX_STEM_CHARS]
+    return stem or "shot"
+
+
+def _stamped_names(prefix: str, suffix: str):
+    """``{prefix}YYYYmmdd_HHMMSS_mmm{suffix}``, then ``..._mmm_2{suffix}``, ``_3``...: to the
+    millisecond, so two captures in one second differ, and a counter for the same millisecond."""
+    now = time.time()
+    stamp = time.strftime("%Y%m%d_%H%M%S", time.localtime(now)) + f"_{int(now * 1000) % 1000:03d}"
+    yield f"{prefix}{stamp}{suffix}"
+    for n in range(2, MAX_SAME_NAME + 1):
+        yield f"{prefix}{stamp}_{n}{suffix}"
+
+
+def reserve_new(folder: str | os.PathLike, prefix: str, suffix: str, directory: bool = False) -> Path:
+    """Create, and so claim, a new empty file (or folder) with a time-stamped name in
+    ``folder``: the creation is exclusive (O_EXCL / mkdir), so nothing is ever
+    overwritten, not even by another viewer writing there in the same millisecond.
+    The caller replaces it atomically, or removes it with ``release``."""
+    folder = Path(folder)
+    for name in _stamped_names(prefix, suffix):
+        path = folder / name
+        try:
+            if directory:
+                os.mkdir(path)
+            else:
+                os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+        except FileExistsError:
+            continue
+        return path
+    raise FileExistsError(f"{folder}: {MAX_SAME_NAME} files named {prefix}...{suffix} this millisecond")
+
+
+def release(path: Path) -> None:
+    """Remove a name claimed by ``reserve_new`` that was never written (still empty)."""
+    with contextlib.suppress(OSError):
+        if path.is_dir():
+            path.rmdir()                 # only if still empty
+        elif path.stat().st_size == 0:
+            path.unlink()
+
+
+def write_new(folder: str | os.PathLike, prefix: str, suffix: str, write) -> Path:
+    """``write(path)`` into a newly claimed time-stamped name (``reserve_new``); on
+    failure the claimed name is given back. Returns the path written."""
+    path = reserve_new(folder, prefix, suffix)
+    try:
+        write(path)
+    except BaseException:
+        release(path)
+        raise
+    return path
+
+
+def write_new_png(image: np.ndarray, folder: str | os.PathLike | None = None) -> Path:
+    """An F12 screenshot: ``hitpoint_<time to the ms>.png`` in ``folder`` (default: the
+    working directory), never over an earlier one."""
+    return write_new(Path.cwd() if folder is None else folder, "hitpoint_", ".png",
+                     lambda path: write_png(path, image))
 
 
 # What an export can write; the default is all but the JSON flavour of glTF.
@@ -42,14 +105,11 @@ EXPORT_FORMATS = ("png", "mp4", "bvh", "glb", "gltf")
 DEFAULT_EXPORT_FORMATS = ("png", "mp4", "bvh", "glb")
 
 
-def default_export_dir() -> Path:
-    """A new folder name in the working directory (never an existing one)."""
-    base = Path.cwd() / time.strftime("hitpoint_export_%Y%m%d_%H%M%S")
-    out, n = base, 1
-    while out.exists():
-        n += 1
-        out = base.with_name(f"{base.name}_{n}")
-    return out
+def new_export_dir(folder: str | os.PathLike | None = None) -> Path:
+    """A new, claimed (empty) export folder ``hitpoint_export_<time to the ms>`` in
+    ``folder`` (default: the working directory); ``export_shot`` fills it atomically,
+    ``release`` gives it back if the export fails."""
+    return reserve_new(Path.cwd() if folder is None else folder, "hitpoint_export_", "", directory=True)
 
 
 def have_ffmpeg() -> bool:

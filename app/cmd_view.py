@@ -32,6 +32,13 @@ def view(
     stats: Annotated[Optional[Path], typer.Option("--stats", help="Write frame-time statistics as JSON.")] = None,
     library: Annotated[Optional[Path], typer.Option("--library", help="Shot library manifest "
                                                     "(default: bundled).")] = None,
+    fresh: Annotated[bool, typer.Option("--fresh", help="Start clean, not from the last session; that one "
+                                        "is kept (renamed session.before-fresh-<time>.json) once this one "
+                                        "changes.")] = False,
+    session: Annotated[Optional[bool], typer.Option("--session/--no-session", help="Restore the last session "
+                       "(settings, camera, every PC-pad take) and autosave it, to $HITPOINT_DATA_DIR or the "
+                       "user data folder. Default: on with a window; off headless or with --script (runs stay "
+                       "reproducible) unless HITPOINT_DATA_DIR is set.")] = None,
 ):
     """Open the viewer: drag the red-and-white target, the shot adapts every frame."""
     started = time.perf_counter()
@@ -47,7 +54,9 @@ def view(
     from app.viewer import App
     from app.window import DisplayError
     try:
-        app = App((w, h), headless=headless, manifest=library, started_at=started)
+        from app.session import autosave_for
+        app = App((w, h), headless=headless, manifest=library, started_at=started,
+                  session=autosave_for(headless, script is not None, fresh, session))
     except DisplayError as e:
         raise UserError(str(e)) from None
     try:

@@ -282,6 +282,10 @@ def _capture_section(settings: ViewerSettings, extras: dict) -> None:
     if imgui.button("Reload shot library"):
         settings.reload_requested = True
     _last_capture(extras)
+    if extras.get("session"):            # where the session autosaves (app.session)
+        imgui.push_text_wrap_pos(0.0)
+        imgui.text_colored(DIM, extras["session"])
+        imgui.pop_text_wrap_pos()
 
 
 def _last_capture(extras: dict) -> None:

@@ -9,6 +9,14 @@ animation that plays in the viewport. Preset buttons make the exaggerated,
 toned-down and aborted variations of Figure 3.7 (amount slider). Below, the
 explained variance per PC and cumulative.
 
+Every animation made (a drawn path, a preset, the 2-PC source path) is a
+:class:`Take`, kept per shot name in ``PadState.takes``: switching shots (the
+ball path, a library reload) clears only what plays, the shot's takes come back
+when it does and the pad's "take" list picks among them. A take keeps what made
+it (the PC-score points, their times, the preset and clean-up options), not the
+clip: re-synthesis is deterministic, so the session (``app.session``) stores
+only that and the clip is made again when the take is picked.
+
 The viewer calls :func:`draw_pc_pad` from the panel (before its engine update)
 and, after the update, :func:`active_pose`: when it returns a pose the viewport
 shows it instead of the adapted shot. :func:`set_scores` serves scripted drags.
@@ -29,6 +37,37 @@ PRESET_RGBA = (0.85, 0.45, 0.95, 1.0)
 MARKER_RGBA = (1.0, 1.0, 1.0, 1.0)
 PRESET_LABELS = {"exaggerated": "exaggerated", "toned_down": "toned down", "aborted": "aborted"}
 MIN_POINT_SPACING = 0.004     # of the pad's width: closer drawn points are merged
+MAX_TAKE_POINTS = 4000        # points of one drawn stroke (over a minute of drawing at 60 Hz)
+MAX_TAKES_PER_SHOT = 64       # the oldest take of a shot goes when a new one would exceed this
+DRAWN, SOURCE = "drawn", "source (2 PCs)"
+TAKE_KINDS = (DRAWN, SOURCE, *PRESET_LABELS)
+
+
+@dataclass
+class Take:
+    """One synthesised animation of a shot: what made it, and (cached) the clip."""
+    kind: str                             # one of TAKE_KINDS
+    points: np.ndarray                    # (N, 2) PC scores, as drawn or the preset's path
+    times: np.ndarray | None = None       # (N,) seconds from the first point; None: over the shot
+    amount: float = 0.4                   # the preset's amount (presets only)
+    fix_hand: bool = True
+    plant_feet: bool = True
+    anim: object = None                   # engine.skeleton.Clip, made when first shown
+    anim_global: tuple | None = None
+    path: np.ndarray | None = None        # (F, 2) the points resampled to the clip's frames
+    note: str = ""
+
+    def same_recipe(self, other: "Take") -> bool:
+        return (self.kind == other.kind and self.amount == other.amount and self.fix_hand == other.fix_hand
+                and self.plant_feet == other.plant_feet and self.points.shape == other.points.shape
+                and np.array_equal(self.points, other.points)
+                and (self.times is None) == (other.times is None)
+                and (self.times is None or np.array_equal(self.times, other.times)))
+
+    def label(self, index: int) -> str:
+        extra = (f" {self.amount:.2f}" if self.kind in PRESET_LABELS else
+                 f", {self.times[-1]:.1f} s" if self.times is not None else "")
+        return f"{index + 1}. {PRESET_LABELS.get(self.kind, self.kind)}{extra}"
 
 
 @dataclass
@@ -59,6 +98,12 @@ class PadState:
     pose: Pose | None = None              # what the viewport shows while live/playing
     info: str = ""                        # one line about the last animation
     pose_us: float = 0.0                  # last pose-from-scores + FK time
+    takes: dict = field(default_factory=dict)     # shot name -> [Take], oldest first
+    take: int = -1                        # the take shown, index into the current shot's list
+    generation: int = 0                   # +1 whenever ``takes`` changes (app.session saves then)
+
+    def shot_takes(self, name: str | None) -> list:
+        return self.takes.get(name, []) if name is not None else []
 
 
 def pad_state(state) -> PadState:
@@ -86,8 +131,10 @@ def sync(state) -> PadState | None:
         centre, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-3) * 1.4
         pad.lo, pad.hi = centre - half, centre + half
         pad.shot_key = key
+        # what plays belongs to the old shot; its takes stay in pad.takes for its return
         pad.marker, pad.live, pad.playing, pad.pose = None, False, False, None
         pad.path, pad.anim, pad.anim_global, pad.stroke, pad.info = None, None, None, [], ""
+        pad.take = -1
     return pad
 
 
@@ -147,6 +194,8 @@ def set_scores(state, scores, final: bool = False) -> None:
 
 
 def _add_stroke_point(pad: PadState, s) -> None:
+    if len(pad.stroke) >= MAX_TAKE_POINTS:      # a take stays a size the session can hold
+        return
     spacing = MIN_POINT_SPACING * float((pad.hi - pad.lo)[0])
     if pad.stroke and np.hypot(*(np.array(pad.stroke[-1][:2]) - s)) < spacing:
         return
@@ -164,12 +213,14 @@ def finish_stroke(state) -> bool:
     t = np.array([p[2] for p in stroke])
     fps = state.fps
     times = t - t[0] if (t[-1] - t[0]) * fps >= 2 else None
-    _make_animation(state, pts, times, "drawn")
+    _make_animation(state, pts, times, DRAWN)
     return True
 
 
-def apply_preset(state, preset: str | None = None, amount: float | None = None) -> None:
-    """Animate a preset variation of the shot (Figure 3.7)."""
+def apply_preset(state, preset: str | None = None, amount: float | None = None,
+                 replace: bool = False) -> None:
+    """Animate a preset variation of the shot (Figure 3.7); ``replace``: in place of
+    the take shown (its amount re-made when the slider is let go)."""
     from engine import synth
     pad = sync(state)
     if pad is None:
@@ -177,36 +228,89 @@ def apply_preset(state, preset: str | None = None, amount: float | None = None) 
     pad.preset = preset or pad.preset
     pad.amount = pad.amount if amount is None else float(amount)
     path = synth.preset_path(pad.guide, pad.preset, pad.amount, pad.sections)
-    _make_animation(state, path, None, pad.preset)
+    _make_animation(state, path, None, pad.preset, replace=replace)
 
 
 def play_source_path(state) -> None:
     """Animate the shot's own 2-PC path (what the pad's two PCs alone give)."""
     pad = sync(state)
     if pad is not None:
-        _make_animation(state, pad.guide, None, "source (2 PCs)")
+        _make_animation(state, pad.guide, None, SOURCE)
 
 
-def _make_animation(state, points, times, kind: str) -> None:
+def _make_animation(state, points, times, kind: str, replace: bool = False) -> None:
+    """A new take of the current shot from ``points`` (and ``times``), shown and playing;
+    the same recipe as a take the shot has already shows that one instead."""
+    pad = pad_state(state)
+    take = Take(kind, np.array(points, float), None if times is None else np.array(times, float),
+                float(pad.amount), bool(pad.fix_hand), bool(pad.plant_feet))
+    takes = pad.takes.setdefault(state.shot.name, [])
+    same = next((i for i, t in enumerate(takes) if t.same_recipe(take)), None)
+    if same is not None:
+        show_take(state, same)
+        return
+    synthesise_take(state, take)
+    if replace and 0 <= pad.take < len(takes) and takes[pad.take].kind == kind:
+        takes[pad.take] = take
+    else:
+        takes.append(take)
+        del takes[:-MAX_TAKES_PER_SHOT]
+        pad.take = len(takes) - 1
+    pad.generation += 1
+    show_take(state, pad.take)
+
+
+def synthesise_take(state, take: Take) -> None:
+    """Make the take's clip for the current shot (deterministic: the same recipe gives
+    the same clip, which is why sessions store recipes, not clips)."""
     from engine import cleanup, synth
     pad = pad_state(state)
     shot, rig = state.shot, state.rig
-    frames = None if times is not None else shot.num_frames
-    anim = synth.synthesise(pad.pca, points, frames=frames, times=times, fps=float(shot.clip.fps))
-    note = ""
-    if pad.fix_hand or pad.plant_feet:
-        res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, pad.fix_hand, pad.plant_feet)
+    fps = float(shot.clip.fps)
+    frames = None if take.times is not None else shot.num_frames
+    anim = synth.synthesise(pad.pca, take.points, frames=frames, times=take.times, fps=fps)
+    take.note = ""
+    if take.fix_hand or take.plant_feet:
+        res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, take.fix_hand, take.plant_feet)
         anim = res.clip
         s = res.summary()
         if "hand_error_cm_max" in s:
-            note = f", hand error max {s['hand_error_cm_max']:.1f} cm"
-    pad.anim = anim
-    pad.anim_global = _fk_pose(rig, anim.root_positions, anim.local_rotations)
-    pad.path = synth.resample_path(points, frames, times, float(shot.clip.fps))
-    pad.path_kind = kind
+            take.note = f", hand error max {s['hand_error_cm_max']:.1f} cm"
+    take.anim = anim
+    take.anim_global = _fk_pose(rig, anim.root_positions, anim.local_rotations)
+    take.path = synth.resample_path(take.points, frames, take.times, fps)
+
+
+def show_take(state, index: int) -> None:
+    """Show and play take ``index`` of the current shot (re-synthesised if it came from a
+    session or its clip was never made)."""
+    pad = sync(state)
+    takes = pad.shot_takes(state.shot.name) if pad is not None else []
+    if not 0 <= index < len(takes):
+        return
+    take = takes[index]
+    if take.anim is None:
+        synthesise_take(state, take)
+    pad.take = index
+    pad.anim, pad.anim_global, pad.path, pad.path_kind = take.anim, take.anim_global, take.path, take.kind
     pad.playing, pad.live, pad.play_time = True, False, 0.0
-    pad.info = f"{kind}: {anim.num_frames} frames{note}"
+    pad.info = f"{PRESET_LABELS.get(take.kind, take.kind)}: {take.anim.num_frames} frames{take.note}"
     advance(pad, 0.0)
+
+
+def delete_take(state, index: int) -> None:
+    """Forget take ``index`` of the current shot (what plays stops if it was that take)."""
+    pad = sync(state)
+    takes = pad.shot_takes(state.shot.name) if pad is not None else []
+    if not 0 <= index < len(takes):
+        return
+    del takes[index]
+    pad.generation += 1
+    if index == pad.take:
+        release(state)
+        pad.take, pad.anim, pad.anim_global, pad.path, pad.info = -1, None, None, None, ""
+    elif index < pad.take:
+        pad.take -= 1
 
 
 def advance(pad: PadState, dt: float) -> None:
@@ -288,10 +392,44 @@ def draw_pc_pad(state) -> bool:
     if imgui.button("back to shot"):
         release(state)
         changed = True
+    changed |= _take_list(state, pad)
     changed |= _pad_area(state, pad)
     changed |= _preset_controls(state, pad)
     _variance_plot(pad)
     return changed
+
+
+def _take_list(state, pad: PadState) -> bool:
+    """The shot's takes (drawn paths, presets): pick one to play it again, or forget it."""
+    from imgui_bundle import imgui
+    takes = pad.shot_takes(state.shot.name)
+    if not takes:
+        imgui.text_disabled("takes: none yet (draw a path or pick a preset)")
+        return False
+    changed = False
+    preview = takes[pad.take].label(pad.take) if 0 <= pad.take < len(takes) else f"{len(takes)} kept"
+    imgui.set_next_item_width(imgui.get_content_region_avail().x - 70)
+    if imgui.begin_combo("##takes", f"take: {preview}"):
+        for i, take in enumerate(takes):
+            if imgui.selectable(f"{take.label(i)}##take{i}", i == pad.take)[0]:
+                _guarded(state, show_take, i)
+                changed = True
+        imgui.end_combo()
+    imgui.same_line()
+    if imgui.button("forget") and 0 <= pad.take < len(takes):
+        delete_take(state, pad.take)
+        changed = True
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("remove the take shown from this shot's list (and the saved session)")
+    return changed
+
+
+def _guarded(state, fn, *args) -> None:
+    """``fn(state, *args)``; a ValueError (a bad take) is a panel message."""
+    try:
+        fn(state, *args)
+    except ValueError as e:
+        state.report(f"pc pad: {e}")
 
 
 def _pad_area(state, pad: PadState) -> bool:
@@ -371,17 +509,14 @@ def _preset_controls(state, pad: PadState) -> bool:
         if i:
             imgui.same_line()
         if imgui.button(label):
-            try:
-                apply_preset(state, key)
-                changed = True
-            except ValueError as e:
-                state.report(f"pc pad: {e}")
+            _guarded(state, apply_preset, key)
+            changed = True
     lo_hi = (0.0, 0.95) if pad.preset == "toned_down" else (0.0, 1.0)
     c, v = imgui.slider_float("amount", pad.amount, *lo_hi, "%.2f")
     if c:
         pad.amount = v
     if imgui.is_item_deactivated_after_edit() and pad.anim is not None and pad.path_kind == pad.preset:
-        apply_preset(state, pad.preset)   # re-make the animation when the slider is let go
+        apply_preset(state, pad.preset, replace=True)   # re-made when the slider is let go
         changed = True
     _, pad.fix_hand = imgui.checkbox("re-attach right hand", pad.fix_hand)
     imgui.same_line()
@@ -400,8 +535,10 @@ def _preset_controls(state, pad: PadState) -> bool:
         imgui.same_line()
         if imgui.button("export BVH"):
             try:
-                out = time.strftime(f"hitpoint_synth_{state.shot.name}_%Y%m%d_%H%M%S.bvh")
-                pad.info = f"wrote {export_animation(state, out)}"
+                from app.capture import safe_stem, write_new   # never over an earlier export
+                out = write_new(".", f"hitpoint_synth_{safe_stem(state.shot.name)}_", ".bvh",
+                                lambda path: export_animation(state, path))
+                pad.info = f"wrote {out}"
             except (OSError, ValueError) as e:
                 state.report(f"pc pad: export: {e}")
     if pad.info:

@@ -43,7 +43,10 @@ def layout(window_size: tuple[int, int]) -> dict[str, tuple]:
 
 
 class App:
-    def __init__(self, size=(1280, 720), headless: bool = False, manifest=None, started_at=None):
+    def __init__(self, size=(1280, 720), headless: bool = False, manifest=None, started_at=None,
+                 session=None):
+        """``session``: an ``app.session.Autosave`` to restore from and autosave to (None: the
+        run neither reads nor writes a session, as tests and benchmarks want)."""
         from imgui_bundle import imgui, implot
         from app.imgui_gl import ImguiRenderer
         from app.window import open_window
@@ -65,6 +68,11 @@ class App:
         self._install_callbacks()
         if load_library(self.state, manifest):
             self.settings.target = default_target(self.state)
+        self.session = session
+        if session is not None:            # before the warm-up: it solves the restored target
+            session.restore(self.settings, self.state, self.camera)
+            self.extras["session"] = session.line
+        if self.state.shots:
             warm_up(self.state, self.settings)
         self.scene_renderer = self._make_scene_renderer()
         self.compositor = Compositor(self.ctx)
@@ -153,6 +161,8 @@ class App:
         if self.interaction.gesture is None and not self.settings.playing:
             prewarm(self.state)      # idle frames only
         self._pc_pad_pose()
+        if self.session is not None:
+            self.session.tick(self.settings, self.state, self.camera)
         t_engine = time.perf_counter()
         if not render:
             self.window.set_cursor(self.state.cursor)
@@ -281,10 +291,12 @@ class App:
         self.settings.frame = float(np.clip(frame, 0, self.state.num_frames - 1))
 
     def request_screenshot(self, path=None) -> None:
-        self._pending_screenshots.append(Path(path) if path else capture.default_screenshot_path())
+        """Screenshot to ``path``, or (None: F12) to a new time-stamped name claimed when written."""
+        self._pending_screenshots.append(Path(path) if path else None)
 
     def request_export(self, out_dir=None) -> None:
-        self._pending_exports.append(Path(out_dir) if out_dir else capture.default_export_dir())
+        """Export into the new folder ``out_dir``, or (None) a new time-stamped one."""
+        self._pending_exports.append(Path(out_dir) if out_dir else None)
 
     def pcpad_drag(self, scores, last: bool) -> None:
         """Scripted PC-pad drag: handed to ``app.pcpad`` if it supports it."""
@@ -297,6 +309,13 @@ class App:
             fn(self.state, np.asarray(scores, float), final=last)
         except Exception as e:
             self.state.report(f"pc pad: {type(e).__name__}: {e}")
+
+    def pcpad_mode(self, mode: str) -> None:
+        """Scripted: the PC pad's mode, "pose" (drag the marker) or "draw" (record a path)."""
+        from app.pcpad import pad_state
+        if mode not in ("pose", "draw"):
+            raise ValueError(f"unknown PC pad mode {mode!r} (pose or draw)")
+        pad_state(self.state).mode = mode
 
     def screenshot(self) -> np.ndarray:
         """The last composed frame ``(h, w, 3)`` uint8."""
@@ -312,16 +331,22 @@ class App:
         while self._pending_screenshots:
             path = self._pending_screenshots.pop(0)
             try:
-                self.extras["last_capture"] = str(capture.write_png(path, self.screenshot()))
+                image = self.screenshot()
+                written = capture.write_new_png(image) if path is None else capture.write_png(path, image)
+                self.extras["last_capture"] = str(written)
             except Exception as e:
                 self.state.report(f"screenshot: {type(e).__name__}: {e}")
         while self._pending_exports:
             out = self._pending_exports.pop(0)
             # formats a script asked for with this folder (app.script._ev_export)
             formats = self.extras.get("export_formats", {}).pop(str(out), None)
+            claimed = out is None
             try:
+                out = capture.new_export_dir() if claimed else out
                 folder = self.export_shot(out, formats)
             except Exception as e:
+                if claimed and out is not None:
+                    capture.release(out)
                 self.state.report(f"export: {type(e).__name__}: {e}")
                 self.extras["last_export"] = (False, f"export to {out} failed: {e}")
             else:
@@ -370,6 +395,8 @@ class App:
         from imgui_bundle import imgui, implot
         gc.unfreeze()        # what this window froze can be collected again
         try:
+            if self.session is not None:
+                self.session.close(self.settings, self.state, self.camera)
             self.gui.release()
             self.compositor.release()
         finally:
