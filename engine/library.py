@@ -56,7 +56,7 @@ MAX_SHOTS = 1000
 MAX_NAME = 64                      # characters in a shot name
 MAX_DESCRIPTION = 2000             # characters in a description
 MAX_FILE_NAME = 4096               # characters in an entry's file (a path)
-MAX_INT_DIGITS = 18                # JSON integers beyond this are refused before int()
+MAX_INT_DIGITS = 64                # digits of a JSON integer (Python refuses int() past 4300)
 _FIELDS = {"name": "a shot name (text)", "file": "a BVH file name (text)",
            "hit_frame": "a frame number (an integer)"}
 
@@ -79,8 +79,9 @@ def _kind(value) -> str:
 
 
 def _json_int(text: str) -> int:
-    if len(text.lstrip("-")) > MAX_INT_DIGITS:
-        raise ValueError(f"integer of {len(text)} digits (at most {MAX_INT_DIGITS}, MAX_INT_DIGITS)")
+    digits = len(text.lstrip("-"))
+    if digits > MAX_INT_DIGITS:
+        raise ValueError(f"integer of {digits} digits (at most {MAX_INT_DIGITS}, MAX_INT_DIGITS)")
     return int(text)
 
 
