@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import UserError, shorten
+from engine.synth import check_scores, check_times   # what synthesis will accept
 
 SESSION_VERSION = 1
 SESSION_FILE = "session.json"
@@ -48,8 +49,6 @@ MAX_SESSION_BYTES = 32_000_000  # a session file is refused above this (64 takes
 MAX_NAME_CHARS = 200            # a shot name, solver or mode
 MAX_SHOTS_WITH_TAKES = 1000
 MAX_POINTS_PER_TAKE = 20_000    # drawn strokes stop at pcpad.MAX_TAKE_POINTS; presets have a shot's frames
-MAX_ABS_SCORE = 1e4             # a PC score (standardised: real ones are within +-50)
-MAX_TAKE_SECONDS = 3600.0
 CAMERA_PIVOT_CM = 3000.0        # as OrbitCamera.pan clamps it
 CAMERA_DISTANCE_CM = (60.0, 5000.0)
 CAMERA_PITCH_DEG = (-5.0, 89.0)
@@ -281,12 +280,18 @@ def take_from_data(item, where: str = "take"):
     points = item.get("points")
     if not isinstance(points, list) or not 2 <= len(points) <= MAX_POINTS_PER_TAKE:
         raise Invalid(f"{where}.points (2..{MAX_POINTS_PER_TAKE} points)")
-    pts = np.stack([_vector(p, 2, f"{where}.points", MAX_ABS_SCORE) for p in points])
+    pts = np.stack([_vector(p, 2, f"{where}.points", np.inf) for p in points])
     times = item.get("times")
     if times is not None:
-        times = _vector(times, len(pts), f"{where}.times", MAX_TAKE_SECONDS)
-        if times[0] < 0 or (np.diff(times) < 0).any() or times[-1] <= times[0]:
-            raise Invalid(f"{where}.times (rising, from >= 0)")
+        times = _vector(times, len(pts), f"{where}.times", np.inf)
+    try:                          # the engine's own limits: a restored take always re-synthesises
+        check_scores(pts)
+        if times is not None:
+            check_times(times, len(pts))
+    except ValueError as e:
+        raise Invalid(f"{where}: {e}") from None
+    if times is not None and not 0 <= times[0] < times[-1]:
+        raise Invalid(f"{where}.times (from >= 0, lasting > 0 s)")
     take = Take(item["kind"], pts, times)
     for name in ("amount", "fix_hand", "plant_feet"):
         if name in item:
@@ -342,10 +347,15 @@ class Autosave:
             if aside is not None:
                 _notice(state, f"session: {e}; kept as {aside.name}, starting clean")
             return False
+        except OSError as e:       # unreadable (permissions): never overwrite what could not be read
+            self.enabled = False
+            state.report(f"session: cannot read {self.path} ({e.strerror or e}); autosave is off")
+            return False
         dropped = apply(data, settings, state, camera)
         if dropped:
+            names = ", ".join(shorten(d, 80) for d in dropped[:NAMES_IN_MESSAGE])
             more = f" and {len(dropped) - NAMES_IN_MESSAGE} more" if len(dropped) > NAMES_IN_MESSAGE else ""
-            _notice(state, f"session: {self.path}: ignored invalid {', '.join(dropped[:NAMES_IN_MESSAGE])}{more}")
+            _notice(state, f"session: {self.path}: ignored invalid {names}{more}")
         self.line = f"session restored from {self.path} (autosaved)"
         return True
 

@@ -21,6 +21,7 @@ from app import capture, session as sess
 from app.camera import OrbitCamera
 from app.settings import ViewerSettings
 from app.state import AppState
+from engine.synth import MAX_ABS_SCORE
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 ROOT = Path(__file__).resolve().parent.parent
@@ -218,7 +219,7 @@ def test_fuzzed_takes_are_exactly_valid_or_invalid(item):
         assert "\n" not in str(e)
         return
     assert take.points.ndim == 2 and take.points.shape[1] == 2 and len(take.points) >= 2
-    assert (np.abs(take.points) <= sess.MAX_ABS_SCORE).all() and 0 <= take.amount <= 1
+    assert (np.abs(take.points) <= MAX_ABS_SCORE).all() and 0 <= take.amount <= 1
     if take.times is not None:
         assert take.times[0] >= 0 and (np.diff(take.times) >= 0).all() and len(take.times) == len(take.points)
     again = sess.take_from_data(sess._take_data(take))        # a valid take round-trips
@@ -348,3 +349,18 @@ def test_captures_in_one_second_get_their_own_names(tmp_path):
         capture.release(d)
     assert set(tmp_path.iterdir()) == before - dirs       # the claimed names were given back
     assert capture.safe_stem("a/b c..d") == "a_b_c__d"
+
+
+def test_an_unreadable_session_is_left_alone_and_never_overwritten(tmp_path, monkeypatch):
+    path = tmp_path / "session.json"
+    path.write_text('{"version": 1}')
+
+    def unreadable(_path):
+        raise PermissionError(13, "Permission denied", str(_path))
+    monkeypatch.setattr(sess, "read", unreadable)
+    saver, settings, state, camera = _restore(tmp_path)
+    assert "cannot read" in state.messages[0][1] and not saver.enabled
+    settings.falloff = 100.0
+    saver.tick(settings, state, camera)
+    saver.close(settings, state, camera)
+    assert path.read_text() == '{"version": 1}' and len(list(tmp_path.iterdir())) == 1
