@@ -1,7 +1,6 @@
 """BVH reader under fuzzing: every input gives either a valid, finite
 (skeleton, clip) or one short line of BvhError; valid files round-trip."""
 import math
-import time
 
 import numpy as np
 import pytest
@@ -25,12 +24,10 @@ FRAMES = ("Frames: 3\nFrame Time: 0.0333333\n"
 BASE = (SMALL[:SMALL.index("\t\tEnd Site")] + HEAD + "\t}\n" + LEG + "}\nMOTION\n" + FRAMES)
 PATH = "fuzz.bvh"
 SMALL_CHUNK = bvh.MAX_TOKEN + 16   # chunks this small cut nearly every frame line
-FAST_S = 2.0                       # generous per-example bound on a shared machine
 
 
 def outcome(text: str, path: str = PATH):
     """(skeleton, clip) for a valid text, else the BvhError's message; asserts the contract."""
-    t0 = time.perf_counter()
     try:
         skel, clip = bvh.parse(text, path)
     except bvh.BvhError as e:
@@ -40,7 +37,6 @@ def outcome(text: str, path: str = PATH):
     else:
         assert_valid(skel, clip)
         result = skel, clip
-    assert time.perf_counter() - t0 < FAST_S
     return result
 
 
@@ -343,10 +339,8 @@ def test_a_file_of_absurd_size_is_refused_before_reading(tmp_path):
     path = tmp_path / "huge.bvh"
     with open(path, "wb") as f:
         f.truncate(bvh.MAX_FILE_BYTES + 1)   # sparse: no disk used, nothing read
-    t0 = time.perf_counter()
     with pytest.raises(bvh.BvhError, match="MAX_FILE_BYTES"):
         bvh.read(path)
-    assert time.perf_counter() - t0 < 0.5
 
 
 def test_hierarchy_without_motion():
@@ -375,24 +369,8 @@ def test_joints_with_zero_rotation_channels_keep_identity_rotations():
 def test_two_hundred_megabytes_of_junk_fail_at_the_first_bad_token():
     header = BASE[:BASE.index("1 90 2")]
     for junk in ("x" * 200_000_000, header + "abc " * 50_000_000, header + "1 " * 100_000_000):
-        t0 = time.perf_counter()
-        refused(junk, "line ")
-        assert time.perf_counter() - t0 < 1.0
+        refused(junk, "line ")   # speed is the bench's business; here: refused, one line
         del junk
-
-
-def test_tokenising_is_linear():
-    """Twice the frames take about twice the time (not four times)."""
-    row = BASE.splitlines()[-1] + "\n"
-    def seconds(frames):
-        text = BASE.replace("Frames: 3", f"Frames: {frames + 3}") + row * frames
-        best = math.inf
-        for _ in range(3):
-            t0 = time.perf_counter()
-            outcome(text)
-            best = min(best, time.perf_counter() - t0)
-        return best
-    assert seconds(60_000) < 3.5 * seconds(30_000)
 
 
 @pytest.mark.skipif(not MOCAP.exists(), reason="shared mocap not present")
