@@ -5,6 +5,7 @@ only every 100th frame to keep the test fast."""
 import numpy as np
 import pytest
 
+from app.errors import UserError
 from app.interaction import KEY_NAMES, LEFT, MIDDLE, RIGHT
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
@@ -34,6 +35,7 @@ def test_random_input_never_breaks_the_viewer(tmp_path, monkeypatch):
         names = [sh.name for sh in st.shots] + [None]
         W, H = app.window.size
         errors_before = st.errors
+        refused = 0
         for i in range(2000):
             r = rng.random()
             if r < 0.35:   # drag the target somewhere, possibly far off the window
@@ -56,7 +58,10 @@ def test_random_input_never_breaks_the_viewer(tmp_path, monkeypatch):
             elif r < 0.65:
                 key = list(SETTINGS)[rng.integers(len(SETTINGS))]
                 values = SETTINGS[key]
-                s.set(key, values[rng.integers(len(values))])
+                try:   # out-of-range and unknown values are refused, the rest clamped
+                    s.set(key, values[rng.integers(len(values))])
+                except UserError:
+                    refused += 1
             elif r < 0.8:     # rapid scrubbing, out of range too
                 app.scrub(rng.uniform(-50, 500))
             elif r < 0.85:
@@ -76,5 +81,6 @@ def test_random_input_never_breaks_the_viewer(tmp_path, monkeypatch):
         engine_errors = [m for _, m in st.messages if m.startswith("engine")]
         assert st.errors == errors_before, engine_errors
         assert app.state.solve_count > 100
+        assert refused > 0
     finally:
         app.close()
