@@ -205,6 +205,7 @@ def _add_stroke_point(pad: PadState, s) -> None:
 def finish_stroke(state) -> bool:
     """Turn the recorded stroke into an animation with the stroke's timing (a
     stroke drawn without time, e.g. in one frame, is stretched over the shot)."""
+    from engine import synth
     pad = pad_state(state)
     stroke, pad.stroke = pad.stroke, []
     if len(stroke) < 2:
@@ -213,6 +214,9 @@ def finish_stroke(state) -> bool:
     t = np.array([p[2] for p in stroke])
     fps = state.fps
     times = t - t[0] if (t[-1] - t[0]) * fps >= 2 else None
+    if times is not None and times[-1] > synth.MAX_PATH_SECONDS:   # the engine's bound on a take
+        state.report(f"pc pad: a stroke over {synth.MAX_PATH_SECONDS:.0f} s is stretched over the shot")
+        times = None
     _make_animation(state, pts, times, DRAWN)
     return True
 

@@ -48,6 +48,20 @@ def test_draw_mode_records_a_timed_animation(state):
     assert np.allclose(pad.path[0], [1, 0]) and pcpad.active_pose(state) is not None
 
 
+def test_a_stroke_longer_than_a_take_is_stretched_not_lost(state):
+    """A stroke held past the engine's take length is kept (stretched over the shot),
+    with a message, instead of failing inside the panel."""
+    from engine import synth
+    pad = pcpad.sync(state)
+    pad.mode = "draw"
+    pad.fix_hand = pad.plant_feet = False
+    for i in range(5):
+        pcpad.advance(pad, synth.MAX_PATH_SECONDS / 3)
+        pcpad.set_scores(state, [np.cos(i), np.sin(i)], final=(i == 4))
+    assert pad.anim is not None and pad.anim.num_frames == state.shot.num_frames
+    assert any("stretched" in m for _, m in state.messages)
+
+
 def test_presets_and_shot_change(state):
     pcpad.apply_preset(state, "toned_down", 0.5)
     pad = state.pc_pad
