@@ -139,28 +139,14 @@ def sync(state) -> PadState | None:
 
 
 def _fk_pose(rig, root, local):
-    from engine.skeleton import forward_kinematics
-    t = rig.skeleton.offsets.copy() if root.ndim == 1 else \
-        np.broadcast_to(rig.skeleton.offsets, root.shape[:-1] + rig.skeleton.offsets.shape).copy()
-    t[..., 0, :] = root
-    return forward_kinematics(rig.skeleton.parents, t, local)
+    from engine.skeleton import pose_fk
+    return pose_fk(rig.skeleton, root, local)
 
 
 def _fk_single(rig, root, local):
-    """FK of one pose with 3x3 matrices: far cheaper than quaternion ops per joint
-    on tiny arrays (the marker moves every frame)."""
-    from engine import quat
-    R = quat.to_matrix(local)
-    parents, offsets = rig.skeleton.parents, rig.skeleton.offsets
-    G = np.empty_like(R)
-    P = np.empty((len(parents), 3))
-    for j, p in enumerate(parents):
-        if p < 0:
-            G[j], P[j] = R[j], root
-        else:
-            G[j] = G[p] @ R[j]
-            P[j] = P[p] + G[p] @ offsets[j]
-    return quat.from_matrix(G), P
+    """FK of one pose by the engine's compiled FK (the marker moves every frame)."""
+    from engine.skeleton import pose_fk
+    return pose_fk(rig.skeleton, root, local, compiled=True)
 
 
 def pose_at_scores(state, scores) -> Pose:
