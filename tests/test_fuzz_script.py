@@ -5,6 +5,7 @@ naming the event; all checked without opening a viewer (except one run)."""
 import json
 import math
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -305,7 +306,7 @@ def test_script_file_limits(tmp_path):
 def test_headless_view_refuses_a_bad_script_with_one_line(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps([{"type": "set", "frame": 1, "key": "sanitise", "value": None}]))
-    r = subprocess.run([str(ROOT / ".venv/bin/hitpoint"), "view", "--headless", "--frames", "5", "--script",
+    r = subprocess.run([sys.executable, "-c", "from app.cli import main; main()", "view", "--headless", "--frames", "5", "--script",
                         str(bad)], capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()

@@ -4,6 +4,7 @@ ValueError / UserError, never another exception, a hang or a huge allocation."""
 import json
 import math
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -233,7 +234,7 @@ def test_read_json_limits(tmp_path):
 def test_cli_refuses_bad_paths_with_one_line(tmp_path, content):
     path, out = tmp_path / "path.json", tmp_path / "out.bvh"
     (path.write_bytes if isinstance(content, bytes) else path.write_text)(content)
-    r = subprocess.run([str(ROOT / ".venv/bin/hitpoint"), "synth", "--shot", "cover_drive", "--path", str(path),
+    r = subprocess.run([sys.executable, "-c", "from app.cli import main; main()", "synth", "--shot", "cover_drive", "--path", str(path),
                         "--out", str(out)], capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
