@@ -22,13 +22,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import quat
-from .ccd import ChainArrays, ccd_frame, chain_arrays, limit_euler
+from .ccd import ITERATIONS, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, limit_euler
 from .dls import DAMPING, default_stiffness, dls_frame
-from .kinematics_nb import (IDENTITY, KIND_MULTI, KIND_NONE, ORIGIN, Pose, chain_fk, euler_to_local, fk_into,
-                            hinge_axis, load_pose, new_pose, new_work, store_local)
+from .kinematics_nb import (IDENTITY, KIND_MULTI, KIND_NONE, ORIGIN, chain_fk, fk_into, hinge_axis, load_pose,
+                            new_pose, new_work, store_local)
 from .nb import kernel
-from .quat_nb import (clamp_angle, dot, pick_branch, q_angle, q_at, qconj, qmul, qrot, to_euler_zyx, v_at,
-                      v_put, vadd, vnorm, vsub)
+from .quat_nb import (clamp_angle, dot, from_euler_zyx, pick_branch, q_angle, q_at, q_put, qconj, qmul, qrot,
+                      to_euler_zyx, v_at, v_put, vnorm, vsub)
 from .skeleton import local_translations
 from .solve_nb import BOTH, GRIP, Damping, grip_target, lm_solve
 
@@ -36,6 +36,7 @@ ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_CM = 0.05          # right hand further than this from its grip ...
 GRIP_RAD = math.radians(0.5)  # ... or turned more than this: solve both arms together
 SOLVERS = ("ccd", "dls")
+FALLOFF = 90.0          # cm: the dissertation's default importance falloff (2.2.5)
 # damped Newton on the grip (and on both arms): from 0.5, down to 0.05, give up
 # past 1e4; stop when a step gains less than 0.1 % (stalled against a limit)
 GRIP_DAMPING = Damping(0.5, 0.05, 1e4, 0.25, 0.0, 0.0, 1e-3)
@@ -49,11 +50,11 @@ Outputs = namedtuple("Outputs", "local grot gpos blend handle err gcm gdeg")
 
 @dataclass
 class AdaptSettings:
-    falloff: float = 90.0        # cm
+    falloff: float = FALLOFF     # cm
     wrist_dof: int = 0           # 0 (locked, default) or 2
-    solver: str = "ccd"          # "ccd" | "dls"
-    iterations: int = 200
-    tolerance: float = 0.001     # cm
+    solver: str = SOLVERS[0]     # "ccd" | "dls"
+    iterations: int = ITERATIONS
+    tolerance: float = TOLERANCE  # cm
     fix_right_hand: bool = True
 
 
@@ -75,29 +76,27 @@ class Adaptation:                # whole adapted shot
 # compiled per-frame pipeline
 
 @kernel
-def _orient_joint(prot, chain, pose, k, eff, target_rot, w):
-    """Turn chain joint k toward putting the last joint on target_rot, if that
-    leaves the effector where it is; False when it would move it."""
-    n = chain.order.shape[0]
-    kd = chain.kind[k]
-    u = vsub(eff, v_at(w.g_pos, k))
-    gp = prot if k == 0 else q_at(w.g_rot, k - 1)
-    last = q_at(w.g_rot, n - 1)
-    euler = pose.euler
+def _orient_joint(prot, kd, free, local, euler, src, lo, hi, g_rot, g_pos, k, eff, target_rot):
+    """Turn chain joint k (of kind kd) toward putting the last joint on target_rot,
+    if that leaves the effector where it is; False when it would move it."""
+    n = free.shape[0]
+    u = vsub(eff, v_at(g_pos, k))
+    gp = prot if k == 0 else q_at(g_rot, k - 1)
+    last = q_at(g_rot, n - 1)
     if kd == KIND_MULTI:
         if vnorm(u) > 1e-6:
             return False
         # the joint's global rotation that would put the last joint on target
-        want = qmul(target_rot, qmul(qconj(last), q_at(w.g_rot, k)))
-        e = pick_branch(to_euler_zyx(qmul(qconj(gp), want)), euler, pose.src, chain.free, pose.lo, pose.hi, k)
+        want = qmul(target_rot, qmul(qconj(last), q_at(g_rot, k)))
+        e = pick_branch(to_euler_zyx(qmul(qconj(gp), want)), euler, src, free, lo, hi, k)
         for c in range(3):
-            if chain.free[k, c]:
-                euler[k, c] = clamp_angle(e[c], pose.lo[k, c], pose.hi[k, c])
+            if free[k, c]:
+                euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
             else:
-                euler[k, c] = pose.src[k, c]
+                euler[k, c] = src[k, c]
     else:
         c = kd - 1
-        axis = hinge_axis(prot, w.g_rot, euler, k, c)
+        axis = hinge_axis(prot, g_rot, euler, k, c)
         du = dot(u, axis)
         if vnorm((u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])) > 1e-6:
             return False
@@ -106,8 +105,8 @@ def _orient_joint(prot, chain, pose, k, eff, target_rot, w):
         if qe[0] < 0.0:
             qe = (-qe[0], -qe[1], -qe[2], -qe[3])
         theta = 2.0 * math.atan2(qe[1] * axis[0] + qe[2] * axis[1] + qe[3] * axis[2], qe[0])
-        euler[k, c] = clamp_angle(euler[k, c] + theta, pose.lo[k, c], pose.hi[k, c])
-    euler_to_local(pose, k)
+        euler[k, c] = clamp_angle(euler[k, c] + theta, lo[k, c], hi[k, c])
+    q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
     return True
 
 
@@ -116,19 +115,21 @@ def orient_finish(prot, ppos, chain, pose, target_rot, reps, ori_tol, w):
     """Turn the trailing chain joints that leave the effector where it is (the
     effector's own joint, a twist about the bone it lies on) so the last
     joint's global rotation approaches target_rot. Returns the angle error (rad)."""
-    n = chain.order.shape[0]
-    eff = chain_fk(prot, ppos, chain, pose.local, w.g_rot, w.g_pos)
-    err = q_angle(q_at(w.g_rot, n - 1), target_rot)
+    kind, free, local, g_rot, g_pos = chain.kind, chain.free, pose.local, w.g_rot, w.g_pos
+    euler, src, lo, hi = pose.euler, pose.src, pose.lo, pose.hi
+    n = kind.shape[0]
+    eff = chain_fk(prot, ppos, chain, local, g_rot, g_pos)
+    err = q_angle(q_at(g_rot, n - 1), target_rot)
     for _ in range(reps):
         if err < ori_tol:
             break
         for k in range(n - 1, -1, -1):
-            if chain.kind[k] == KIND_NONE:
+            if kind[k] == KIND_NONE:
                 continue
-            if not _orient_joint(prot, chain, pose, k, eff, target_rot, w):
+            if not _orient_joint(prot, kind[k], free, local, euler, src, lo, hi, g_rot, g_pos, k, eff, target_rot):
                 break
-            eff = chain_fk(prot, ppos, chain, pose.local, w.g_rot, w.g_pos)
-        err = q_angle(q_at(w.g_rot, n - 1), target_rot)
+            eff = chain_fk(prot, ppos, chain, local, g_rot, g_pos)
+        err = q_angle(q_at(g_rot, n - 1), target_rot)
     return err
 
 
@@ -159,10 +160,11 @@ def _effective_limits(chain, pose):
     """The rig's limits widened to take in the source angle: a source frame
     outside its limits may stay where it is or move back in, never further out
     (and never jump to the far limit)."""
-    for k in range(chain.lo.shape[0]):
+    lo, hi, src, out_lo, out_hi = chain.lo, chain.hi, pose.src, pose.lo, pose.hi
+    for k in range(lo.shape[0]):
         for c in range(3):
-            pose.lo[k, c] = min(chain.lo[k, c], pose.src[k, c])
-            pose.hi[k, c] = max(chain.hi[k, c], pose.src[k, c])
+            out_lo[k, c] = min(lo[k, c], src[k, c])
+            out_hi[k, c] = max(hi[k, c], src[k, c])
 
 
 @kernel

@@ -41,10 +41,10 @@ NO_GOAL = ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 @kernel
-def _hinge_turn(prot, pose, w, k, c, u, v):
+def _hinge_turn(prot, g_rot, euler, k, c, u, v):
     """Shortest turn (rad) of Euler column c of joint k taking u toward v about its axis
-    (0 when either has no lever about it)."""
-    axis = hinge_axis(prot, w.g_rot, pose.euler, k, c)
+    (False when either has no lever about it)."""
+    axis = hinge_axis(prot, g_rot, euler, k, c)
     du = dot(u, axis)
     dv = dot(v, axis)
     up = (u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])
@@ -55,35 +55,36 @@ def _hinge_turn(prot, pose, w, k, c, u, v):
 
 
 @kernel
-def _set_from_euler(pose, free, k, e):
+def _set_from_euler(euler, src, lo, hi, free, k, e):
     """Free columns from e (clamped to the limits), locked ones back to the source."""
     for c in range(3):
         if free[k, c]:
-            pose.euler[k, c] = clamp_angle(e[c], pose.lo[k, c], pose.hi[k, c])
+            euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
         else:
-            pose.euler[k, c] = pose.src[k, c]
+            euler[k, c] = src[k, c]
 
 
 @kernel
 def ccd_sweep(prot, chain, pose, handle, tol, eff, w):
     """One CCD pass from the joint nearest the effector up to the chain root.
     Globals of joints below a turned one go stale (the caller recomputes them)."""
-    euler = pose.euler
-    for k in range(chain.order.shape[0] - 1, -1, -1):
-        kd = chain.kind[k]
+    euler, src, lo, hi, local = pose.euler, pose.src, pose.lo, pose.hi, pose.local
+    g_rot, g_pos, kind, free = w.g_rot, w.g_pos, chain.kind, chain.free
+    for k in range(kind.shape[0] - 1, -1, -1):
+        kd = kind[k]
         if kd == KIND_NONE:
             continue
-        p = (w.g_pos[k, 0], w.g_pos[k, 1], w.g_pos[k, 2])
-        gp = prot if k == 0 else q_at(w.g_rot, k - 1)
+        p = (g_pos[k, 0], g_pos[k, 1], g_pos[k, 2])
+        gp = prot if k == 0 else q_at(g_rot, k - 1)
         u = vsub(eff, p)
         v = vsub(handle, p)
         if kd < KIND_MULTI:
             c = kd - 1
-            delta, ok = _hinge_turn(prot, pose, w, k, c, u, v)
+            delta, ok = _hinge_turn(prot, g_rot, euler, k, c, u, v)
             if not ok:
                 continue
             old = euler[k, c]
-            new = clamp_angle(old + delta, pose.lo[k, c], pose.hi[k, c])
+            new = clamp_angle(old + delta, lo[k, c], hi[k, c])
             if new == old:
                 continue
             euler[k, c] = new
@@ -91,14 +92,14 @@ def ccd_sweep(prot, chain, pose, handle, tol, eff, w):
             qd = between(u, v)
             if qd[0] == 1.0:
                 continue
-            lc = qmul(qconj(gp), qmul(qd, q_at(w.g_rot, k)))
-            _set_from_euler(pose, chain.free, k,
-                            pick_branch(to_euler_zyx(lc), euler, pose.src, chain.free, pose.lo, pose.hi, k))
+            lc = qmul(qconj(gp), qmul(qd, q_at(g_rot, k)))
+            _set_from_euler(euler, src, lo, hi, free, k,
+                            pick_branch(to_euler_zyx(lc), euler, src, free, lo, hi, k))
         lq = from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
-        old_g = q_at(w.g_rot, k)
+        old_g = q_at(g_rot, k)
         new_g = qmul(gp, lq)
-        q_put(pose.local, k, lq)
-        q_put(w.g_rot, k, new_g)
+        q_put(local, k, lq)
+        q_put(g_rot, k, new_g)
         # the subtree turns rigidly about the joint by new_g * old_g^-1
         eff = vadd(p, qrot(qmul(new_g, qconj(old_g)), u))
         if vnorm(vsub(eff, handle)) < tol:
@@ -120,9 +121,10 @@ def ccd_frame(prot, ppos, chain, pose, handle, tol, max_iter, w):
     err = vnorm(vsub(eff, handle))
     if not err >= tol:          # also stops on a NaN handle (pose stays the source)
         return err, 0
+    weight = chain.weight
     do_polish = False
-    for k in range(chain.order.shape[0]):
-        if chain.weight[k] > 0.0:
+    for k in range(weight.shape[0]):
+        if weight[k] > 0.0:
             do_polish = True
     goal = (handle, NO_GOAL[1], NO_GOAL[2])
     it = 0

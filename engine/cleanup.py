@@ -33,10 +33,11 @@ import numpy as np
 from . import quat
 from .adapt import GRIP_CM, GRIP_RAD, ORIENT_TOL, both_arms_solve, grip_solve, orient_finish
 from .ccd import ccd_frame, chain_arrays, limit_euler, solve as ccd_solve
-from .kinematics_nb import (Pose, chain_fk, euler_to_local, fk_frames, load_pose, new_pose, new_work,
-                            store_local, sub_chain, sub_pose)
+from .kinematics_nb import (Pose, chain_fk, euler_to_local, load_pose, new_pose, new_work, store_local, sub_chain,
+                            sub_pose)
 from .nb import kernel
-from .quat_nb import clamp_angle, from_euler_zyx, pick_branch, q_angle, q_at, qconj, qmul, to_euler_zyx, v_at, vadd, vnorm, vsub
+from .quat_nb import (clamp_angle, from_euler_zyx, pick_branch, q_angle, q_at, qconj, qmul, to_euler_zyx, v_at,
+                      vadd, vnorm, vsub)
 from .rig import Rig
 from .skeleton import Clip, Skeleton, local_translations
 from .solve_nb import GRIP_LENGTH, grip_target

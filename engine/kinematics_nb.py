@@ -17,7 +17,12 @@ kernel needs a dozen positional arrays per chain:
 * :class:`Pose` (one frame of one chain, solved in place): ``local (n,4)``,
   ``euler (n,3)`` radians, ``src (n,3)`` the source angles (locked columns go
   back to them), ``lo``/``hi (n,3)`` the limits in force for this frame.
-* :class:`Work`: scratch buffers, allocated once per batch.
+* :class:`Work`: scratch buffers, allocated once per batch (globals of one or
+  two chains, their backups, the least-squares :class:`Step`).
+
+Hot loops take the arrays they need rather than these records: numba counts
+references on every array of a record a function receives or reads a field
+of, and those atomic counts cost more than the maths of a small step.
 """
 from __future__ import annotations
 
@@ -25,7 +30,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .nb import kernel
+from .nb import inline_kernel, kernel
 from .quat_nb import from_euler_zyx, q_at, q_put, qmul, qrot, v_at, v_put, vadd
 
 KIND_NONE = 0          # no free DOF: never turned
@@ -34,7 +39,10 @@ KIND_MULTI = 4         # two or three free columns
 
 Chain = namedtuple("Chain", "offsets eff_off link order free kind lo hi weight")
 Pose = namedtuple("Pose", "local euler src lo hi")
-Work = namedtuple("Work", "g_rot g_pos cols colw dofs A x r bak_l bak_e g2_rot g2_pos bak2_l bak2_e")
+# the least-squares step's buffers: Jacobian columns (rows up to 9), their
+# weights, (joint, Euler column, frozen) per column, normal matrix, solution, residual
+Step = namedtuple("Step", "cols colw dofs A x r")
+Work = namedtuple("Work", "g_rot g_pos g2_rot g2_pos bak_l bak_e bak2_l bak2_e step")
 
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
 ORIGIN = (0.0, 0.0, 0.0)
@@ -67,14 +75,19 @@ def fk_frames(parents, trans, local, joints, out_rot, out_pos):
 
 
 @kernel
-def chain_fk(base_rot, base_pos, chain, local, g_rot, g_pos):
-    """Globals of the chain joints into g_rot (n,4), g_pos (n,3); returns the effector.
+def path_fk(base_rot, base_pos, link, offsets, order, eff_off, local, g_rot, g_pos):
+    """Globals of a chain's joints (``link``: parent inside the chain, -1 the
+    base) into g_rot (n,4), g_pos (n,3); returns the effector (``eff_off`` in
+    the last joint's frame)."""
+    fk_into(base_rot, base_pos, link, offsets, local, order, g_rot, g_pos)
+    n = order.shape[0]
+    return vadd(v_at(g_pos, n - 1), qrot(q_at(g_rot, n - 1), (eff_off[0], eff_off[1], eff_off[2])))
 
-    base_rot, base_pos: global rotation / position of the chain's parent joint."""
-    fk_into(base_rot, base_pos, chain.link, chain.offsets, local, chain.order, g_rot, g_pos)
-    n = chain.order.shape[0]
-    e = chain.eff_off
-    return vadd(v_at(g_pos, n - 1), qrot(q_at(g_rot, n - 1), (e[0], e[1], e[2])))
+
+@kernel
+def chain_fk(base_rot, base_pos, chain, local, g_rot, g_pos):
+    """:func:`path_fk` of a :class:`Chain` hanging off (base_rot, base_pos)."""
+    return path_fk(base_rot, base_pos, chain.link, chain.offsets, chain.order, chain.eff_off, local, g_rot, g_pos)
 
 
 @kernel
@@ -102,7 +115,7 @@ def hinge_axis(prot, g_rot, euler, k, c):
     return qrot(q_at(g_rot, k), (1.0, 0.0, 0.0))
 
 
-@kernel
+@inline_kernel
 def euler_to_local(pose, k):
     """Joint k's local rotation from its Euler angles."""
     e = pose.euler
@@ -117,41 +130,29 @@ def new_pose(n):
 @kernel
 def new_work(n):
     """Scratch for solving chains of up to ``n`` joints (two at once: 6n columns of 9 rows)."""
-    return Work(np.empty((n, 4)), np.empty((n, 3)), np.empty((6 * n, 9)), np.empty(6 * n),
-                np.empty((6 * n, 4), np.int64), np.empty((9, 9)), np.empty(9), np.empty(9),
-                np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 4)), np.empty((n, 3)),
-                np.empty((n, 4)), np.empty((n, 3)))
+    step = Step(np.empty((6 * n, 9)), np.empty(6 * n), np.empty((6 * n, 3), np.int64), np.empty((9, 9)),
+                np.empty(9), np.empty(9))
+    return Work(np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 4)), np.empty((n, 3)),
+                np.empty((n, 4)), np.empty((n, 3)), np.empty((n, 4)), np.empty((n, 3)), step)
 
 
 @kernel
 def load_pose(pose, local, euler, joints):
     """One frame's chain joints ``joints`` of ``local (J,4)`` / ``euler (J,3)`` into pose
     (local, euler and src)."""
+    p_local, p_euler, p_src = pose.local, pose.euler, pose.src
     for k in range(joints.shape[0]):
         for c in range(4):
-            pose.local[k, c] = local[joints[k], c]
+            p_local[k, c] = local[joints[k], c]
         for c in range(3):
-            pose.euler[k, c] = euler[joints[k], c]
-            pose.src[k, c] = euler[joints[k], c]
+            p_euler[k, c] = euler[joints[k], c]
+            p_src[k, c] = euler[joints[k], c]
 
 
 @kernel
 def store_local(pose, joints, local):
     """The pose's local rotations back into one frame's ``local (J,4)``."""
+    p_local = pose.local
     for k in range(joints.shape[0]):
         for c in range(4):
-            local[joints[k], c] = pose.local[k, c]
-
-
-@kernel
-def save_pose(pose, bak_l, bak_e):
-    n = pose.local.shape[0]
-    bak_l[:n] = pose.local
-    bak_e[:n] = pose.euler
-
-
-@kernel
-def restore_pose(pose, bak_l, bak_e):
-    n = pose.local.shape[0]
-    pose.local[:] = bak_l[:n]
-    pose.euler[:] = bak_e[:n]
+            local[joints[k], c] = p_local[k, c]

@@ -64,7 +64,7 @@ def _keyed(base):
 def _install_locators() -> None:
     try:
         from numba.core import caching
-        impl = caching._CacheImpl
+        impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
         ours = [_keyed(caching.UserProvidedCacheLocator), _keyed(caching.InTreeCacheLocator)]
     except (ImportError, AttributeError):      # another numba: its own per-file check applies
         return
@@ -78,3 +78,10 @@ _install_locators()
 def kernel(fn):
     """``numba.njit(cache=True)``: every compiled function of the engine."""
     return njit(cache=True)(fn)
+
+
+def inline_kernel(fn):
+    """A small helper inlined into its callers at numba's level, so the reference
+    counts of the arrays it reads from a namedtuple cancel out there (a call
+    would pay an atomic increment and decrement per array)."""
+    return njit(cache=True, inline="always")(fn)

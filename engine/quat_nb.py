@@ -70,13 +70,6 @@ def qnormalize(q):
 
 
 @kernel
-def axis_angle(axis, angle):
-    """Unit axis (tuple) and angle (rad) -> quaternion."""
-    s = math.sin(0.5 * angle)
-    return (math.cos(0.5 * angle), axis[0] * s, axis[1] * s, axis[2] * s)
-
-
-@kernel
 def between(u, v):
     """Shortest-arc rotation taking direction u onto v (identity if either is ~0)."""
     nu = vnorm(u)

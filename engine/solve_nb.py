@@ -22,9 +22,10 @@ from __future__ import annotations
 import math
 from collections import namedtuple
 
-from .kinematics_nb import chain_fk, euler_to_local, hinge_axis, restore_pose, save_pose
-from .nb import kernel
-from .quat_nb import clamp_angle, cross, q_angle, q_at, qconj, qmul, qrot, v_at, vadd, vnorm, vsub
+from .kinematics_nb import hinge_axis, path_fk
+from .nb import inline_kernel, kernel
+from .quat_nb import (clamp_angle, cross, from_euler_zyx, q_angle, q_at, q_put, qconj, qmul, qrot, v_at, vadd,
+                      vnorm, vsub)
 
 POSITION, GRIP, BOTH = 0, 1, 2
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
@@ -36,7 +37,7 @@ BAT_WEIGHT = 10.0       # the bat on the ball matters most when both arms move
 Damping = namedtuple("Damping", "lam0 lam_min lam_max max_step progress stall stall_rel")
 
 
-@kernel
+@inline_kernel
 def solve_small(A, r, x, R):
     """x = A^-1 r for the symmetric positive definite R x R matrix A (overwritten):
     closed-form cofactors for 3 x 3 (False when singular), Cholesky otherwise."""
@@ -77,135 +78,144 @@ def solve_small(A, r, x, R):
     return True
 
 
-@kernel
-def _normal_matrix(w, m, R, lam):
-    A = w.A
+@inline_kernel
+def _normal_matrix(A, cols, dofs, m, R, lam):
+    """A = J J^T + lam^2 I over the columns not frozen."""
     for i in range(R):
         for j in range(R):
             A[i, j] = lam * lam if i == j else 0.0
     for q in range(m):
-        if w.dofs[q, 3]:
+        if dofs[q, 2]:
             continue
         for i in range(R):
-            ci = w.cols[q, i]
+            ci = cols[q, i]
             if ci != 0.0:
                 for j in range(R):
-                    A[i, j] += ci * w.cols[q, j]
+                    A[i, j] += ci * cols[q, j]
 
 
 @kernel
-def _turn(w, q, R):
-    """Joint-angle change of column q for the current solution x (before scaling)."""
-    d = 0.0
-    for i in range(R):
-        d += w.cols[q, i] * w.x[i]
-    return d * w.colw[q]
-
-
-@kernel
-def dls_step(w, m, R, lam, max_step, pa, pb):
-    """One damped least-squares step on the ``m`` columns in ``w.cols`` (rows 0..R-1,
-    ``w.dofs[q] = (chain 0|1, joint, Euler column, frozen)``) for the residual
-    ``w.r``, in place on the poses pa / pb. False when the system is singular."""
+def dls_step(step, ma, m, R, lam, max_step, ea, la, ha, eb, lb, hb):
+    """One damped least-squares step on the ``m`` columns of ``step.cols`` (rows
+    0..R-1; columns 0..ma-1 move the angles ``ea`` within ``la``/``ha``, the rest
+    ``eb`` within ``lb``/``hb``) for the residual ``step.r``, in place. False
+    when the system is singular (nothing moved). One flat loop nest: numba
+    counts references on every array a call receives, which a helper per
+    column would pay many times per step."""
+    cols, colw, dofs, A, x, r = step.cols, step.colw, step.dofs, step.A, step.x, step.r
     for _round in range(3):
-        _normal_matrix(w, m, R, lam)
-        if not solve_small(w.A, w.r, w.x, R):
+        _normal_matrix(A, cols, dofs, m, R, lam)
+        if not solve_small(A, r, x, R):
             return False
+        # cap the largest angle change: the linearisation holds for small turns
         biggest = 0.0
         for q in range(m):
-            if not w.dofs[q, 3]:
-                biggest = max(biggest, abs(_turn(w, q, R)))
+            if not dofs[q, 2]:
+                d = 0.0
+                for i in range(R):
+                    d += cols[q, i] * x[i]
+                biggest = max(biggest, abs(d * colw[q]))
         scale = 1.0 if biggest <= max_step else max_step / biggest
         clamped = False
         for q in range(m):
-            if w.dofs[q, 3]:
+            if dofs[q, 2]:
                 continue
-            pose = pa if w.dofs[q, 0] == 0 else pb
-            k, c = w.dofs[q, 1], w.dofs[q, 2]
-            want = pose.euler[k, c] + _turn(w, q, R) * scale
-            got = clamp_angle(want, pose.lo[k, c], pose.hi[k, c])
+            euler, lo, hi = (ea, la, ha) if q < ma else (eb, lb, hb)
+            k, c = dofs[q, 0], dofs[q, 1]
+            d = 0.0
+            for i in range(R):
+                d += cols[q, i] * x[i]
+            want = euler[k, c] + d * colw[q] * scale
+            got = clamp_angle(want, lo[k, c], hi[k, c])
             if got != want:
                 # take what the limit allows, freeze it, and leave the rest to the others
-                gd = got - pose.euler[k, c]
-                pose.euler[k, c] = got
-                sw = 1.0 / w.colw[q]
+                gd = got - euler[k, c]
+                euler[k, c] = got
+                sw = 1.0 / colw[q]
                 for i in range(R):
-                    w.r[i] -= w.cols[q, i] * sw * gd
-                w.dofs[q, 3] = 1
+                    r[i] -= cols[q, i] * sw * gd
+                dofs[q, 2] = 1
                 clamped = True
         if not clamped:
             for q in range(m):
-                if not w.dofs[q, 3]:
-                    pose = pa if w.dofs[q, 0] == 0 else pb
-                    pose.euler[w.dofs[q, 1], w.dofs[q, 2]] += _turn(w, q, R) * scale
+                if not dofs[q, 2]:
+                    euler = ea if q < ma else eb
+                    d = 0.0
+                    for i in range(R):
+                        d += cols[q, i] * x[i]
+                    euler[dofs[q, 0], dofs[q, 1]] += d * colw[q] * scale
             break
-    for q in range(m):
-        if q == 0 or w.dofs[q, 0] != w.dofs[q - 1, 0] or w.dofs[q, 1] != w.dofs[q - 1, 1]:
-            euler_to_local(pa if w.dofs[q, 0] == 0 else pb, w.dofs[q, 1])
     return True
 
 
-@kernel
-def _column(w, m, chain_id, k, c, scale):
-    w.colw[m] = scale
-    w.dofs[m, 0] = chain_id
-    w.dofs[m, 1] = k
-    w.dofs[m, 2] = c
-    w.dofs[m, 3] = 0
+@inline_kernel
+def _write_locals(dofs, q0, q1, local, euler):
+    """Local rotations of the joints that had columns q0..q1-1, from their angles."""
+    last = -1
+    for q in range(q0, q1):
+        k = dofs[q, 0]
+        if k != last:
+            last = k
+            q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
 
 
 @kernel
-def _position_columns(prot, chain, pose, eff, goal, w):
+def _column(colw, dofs, m, k, c, scale):
+    colw[m] = scale
+    dofs[m, 0] = k
+    dofs[m, 1] = c
+    dofs[m, 2] = 0
+
+
+@inline_kernel
+def _position_columns(prot, free, weight, euler, eff, g_rot, g_pos, cols, colw, dofs):
+    """Weighted position columns of a chain's effector."""
     m = 0
-    for k in range(chain.order.shape[0]):
+    for k in range(free.shape[0]):
         for c in range(3):
-            if chain.free[k, c] and chain.weight[k] > 0.0:
-                col = cross(hinge_axis(prot, w.g_rot, pose.euler, k, c), vsub(eff, v_at(w.g_pos, k)))
-                sw = math.sqrt(chain.weight[k])
+            if free[k, c] and weight[k] > 0.0:
+                col = cross(hinge_axis(prot, g_rot, euler, k, c), vsub(eff, v_at(g_pos, k)))
+                sw = math.sqrt(weight[k])
                 for i in range(3):
-                    w.cols[m, i] = col[i] * sw
-                _column(w, m, 0, k, c, sw)
+                    cols[m, i] = col[i] * sw
+                _column(colw, dofs, m, k, c, sw)
                 m += 1
-    r = vsub(goal[0], eff)
-    for i in range(3):
-        w.r[i] = r[i]
     return m
 
 
 @kernel
-def _grip_columns(prot, chain, pose, eff, w, g_rot, g_pos, chain_id, m, L):
-    """Columns of chain_id's free angles on a hand at ``eff``: 3 position rows at
-    rows 0..2 of the hand block, 3 rotation rows after them."""
-    o = 3 if chain_id == 1 else 0
-    for k in range(chain.order.shape[0]):
+def _grip_columns(prot, free, euler, eff, g_rot, g_pos, cols, colw, dofs, o, m):
+    """Columns of a chain's free angles on a hand at ``eff``: 3 position rows from
+    row o, 3 rotation rows (GRIP_LENGTH cm per radian) after them, rows before o zero."""
+    for k in range(free.shape[0]):
         for c in range(3):
-            if chain.free[k, c]:
-                a = hinge_axis(prot, g_rot, pose.euler, k, c)
+            if free[k, c]:
+                a = hinge_axis(prot, g_rot, euler, k, c)
                 cg = cross(a, vsub(eff, v_at(g_pos, k)))
                 for i in range(3):
                     if o:
-                        w.cols[m, i] = 0.0
-                    w.cols[m, o + i] = cg[i]
-                    w.cols[m, o + 3 + i] = a[i] * L
-                _column(w, m, chain_id, k, c, 1.0)
+                        cols[m, i] = 0.0
+                    cols[m, o + i] = cg[i]
+                    cols[m, o + 3 + i] = a[i] * GRIP_LENGTH
+                _column(colw, dofs, m, k, c, 1.0)
                 m += 1
     return m
 
 
 @kernel
-def _both_columns(prot, ppos, ca, pa, cb, pb, rp, t_pos, w):
-    """Bat rows 0..2 and grip rows 3..8 for both chains' free angles."""
+def _both_columns(prot, rp, free, euler, bat, t_pos, g_rot, g_pos, r, cols, colw, dofs):
+    """Bat rows 0..2 and grip rows 3..8 of chain a's free angles (FK in g_rot/g_pos,
+    bat effector at ``bat``, grip target ``t_pos``, residual ``r``)."""
     L = GRIP_LENGTH
-    bat = chain_fk(prot, ppos, ca, pa.local, w.g_rot, w.g_pos)
-    rv = (w.r[6] / L, w.r[7] / L, w.r[8] / L)
-    rpos = (w.r[3], w.r[4], w.r[5])
+    rv = (r[6] / L, r[7] / L, r[8] / L)
+    rpos = (r[3], r[4], r[5])
     m = 0
-    for k in range(ca.order.shape[0]):
+    for k in range(free.shape[0]):
         for c in range(3):
-            if not ca.free[k, c]:
+            if not free[k, c]:
                 continue
-            a = hinge_axis(prot, w.g_rot, pa.euler, k, c)
-            pk = v_at(w.g_pos, k)
+            a = hinge_axis(prot, g_rot, euler, k, c)
+            pk = v_at(g_pos, k)
             cb_ = cross(a, vsub(bat, pk))
             if k <= rp:     # turns the right arm and its target together
                 cg = cross(a, rpos)
@@ -217,13 +227,12 @@ def _both_columns(prot, ppos, ca, pa, cb, pb, rp, t_pos, w):
                 cg = (-cg[0], -cg[1], -cg[2])
                 co = (-L * a[0], -L * a[1], -L * a[2])
             for i in range(3):
-                w.cols[m, i] = BAT_WEIGHT * cb_[i]
-                w.cols[m, 3 + i] = cg[i]
-                w.cols[m, 6 + i] = co[i]
-            _column(w, m, 0, k, c, 1.0)
+                cols[m, i] = BAT_WEIGHT * cb_[i]
+                cols[m, 3 + i] = cg[i]
+                cols[m, 6 + i] = co[i]
+            _column(colw, dofs, m, k, c, 1.0)
             m += 1
-    rh = v_at(w.g2_pos, cb.order.shape[0] - 1)
-    return _grip_columns(q_at(w.g_rot, rp), cb, pb, rh, w, w.g2_rot, w.g2_pos, 1, m, L)
+    return m
 
 
 @kernel
@@ -253,72 +262,114 @@ def grip_target(g_rot, g_pos, n, rel_p, rel_q):
     return vadd(v_at(g_pos, n - 1), qrot(g, rel_p)), qmul(g, rel_q)
 
 
-@kernel
-def residual(kind, prot, ppos, ca, pa, cb, pb, rp, goal, w):
-    """FK and the residual of the problem into w.r. Returns (point, norm): the
-    effector (POSITION, GRIP) or the grip target (BOTH)."""
-    eff = chain_fk(prot, ppos, ca, pa.local, w.g_rot, w.g_pos)
-    n = ca.order.shape[0]
+@inline_kernel
+def copy_rows(dst, src, n):
+    """dst[:n] = src[:n] without making views (each view costs a reference count)."""
+    for k in range(n):
+        for c in range(src.shape[1]):
+            dst[k, c] = src[k, c]
+
+
+@inline_kernel
+def residual(kind, prot, ppos, ga, la, gb, lb, rp, goal, G):
+    """FK and the residual of the problem into G's r. ``ga``/``gb``: (link, offsets,
+    order, eff_off) of chain a / b, ``la``/``lb`` their local rotations, ``G``:
+    (g_rot, g_pos, g2_rot, g2_pos, r). Returns (point, norm): the effector
+    (POSITION, GRIP) or the grip target (BOTH)."""
+    g_rot, g_pos, g2_rot, g2_pos, r = G
+    eff = path_fk(prot, ppos, ga[0], ga[1], ga[2], ga[3], la, g_rot, g_pos)
+    n = la.shape[0]
     if kind == POSITION:
         return eff, vnorm(vsub(eff, goal[0]))
     if kind == GRIP:
-        return eff, grip_residual(eff, q_at(w.g_rot, n - 1), goal[0], goal[1], GRIP_LENGTH, w.r, 0)
-    rh = chain_fk(q_at(w.g_rot, rp), v_at(w.g_pos, rp), cb, pb.local, w.g2_rot, w.g2_pos)
-    t_pos, t_rot = grip_target(w.g_rot, w.g_pos, n, goal[2], goal[1])
+        return eff, grip_residual(eff, q_at(g_rot, n - 1), goal[0], goal[1], GRIP_LENGTH, r, 0)
+    rh = path_fk(q_at(g_rot, rp), v_at(g_pos, rp), gb[0], gb[1], gb[2], gb[3], lb, g2_rot, g2_pos)
+    t_pos, t_rot = grip_target(g_rot, g_pos, n, goal[2], goal[1])
+    handle = goal[0]
     for i in range(3):
-        w.r[i] = BAT_WEIGHT * (goal[0][i] - eff[i])
-    grip_residual(rh, q_at(w.g2_rot, cb.order.shape[0] - 1), t_pos, t_rot, GRIP_LENGTH, w.r, 3)
+        r[i] = BAT_WEIGHT * (handle[i] - eff[i])
+    grip_residual(rh, q_at(g2_rot, lb.shape[0] - 1), t_pos, t_rot, GRIP_LENGTH, r, 3)
     t = 0.0
     for i in range(9):
-        t += w.r[i] * w.r[i]
+        t += r[i] * r[i]
     return t_pos, math.sqrt(t)
 
 
-@kernel
-def converged(kind, ca, point, res, goal, tol, ori_tol, w):
+@inline_kernel
+def converged(kind, n, point, res, goal, tol, ori_tol, g_rot, r):
     if kind == POSITION:
         return not res >= tol
     if kind == GRIP:
-        n = ca.order.shape[0]
-        return vnorm(vsub(point, goal[0])) < tol and q_angle(q_at(w.g_rot, n - 1), goal[1]) < ori_tol
-    r = w.r
+        return vnorm(vsub(point, goal[0])) < tol and q_angle(q_at(g_rot, n - 1), goal[1]) < ori_tol
     bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / BAT_WEIGHT
     pos_e = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
     ori_e = math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / GRIP_LENGTH
     return bat_e < tol and pos_e < tol and ori_e < ori_tol
 
 
-@kernel
-def _step(kind, prot, ppos, ca, pa, cb, pb, rp, point, goal, lam, max_step, w):
+@inline_kernel
+def _columns(kind, prot, rp, point, goal, fa, wa, eoa, ea, fb, eb, G, cols, colw, dofs):
+    """The problem's Jacobian columns (chain a: free columns ``fa``, weights ``wa``,
+    effector offset ``eoa``, angles ``ea``; chain b: ``fb``, ``eb``) at the FK in
+    G: (columns of chain a, all columns, rows)."""
+    g_rot, g_pos, g2_rot, g2_pos, r = G
     if kind == POSITION:
-        return dls_step(w, _position_columns(prot, ca, pa, point, goal, w), 3, lam, max_step, pa, pa)
+        d = vsub(goal[0], point)
+        r[0], r[1], r[2] = d[0], d[1], d[2]
+        m = _position_columns(prot, fa, wa, ea, point, g_rot, g_pos, cols, colw, dofs)
+        return m, m, 3
     if kind == GRIP:
-        m = _grip_columns(prot, ca, pa, point, w, w.g_rot, w.g_pos, 0, 0, GRIP_LENGTH)
-        return dls_step(w, m, 6, lam, max_step, pa, pa)
-    return dls_step(w, _both_columns(prot, ppos, ca, pa, cb, pb, rp, point, w), 9, lam, max_step, pa, pb)
+        m = _grip_columns(prot, fa, ea, point, g_rot, g_pos, cols, colw, dofs, 0, 0)
+        return m, m, 6
+    n = ea.shape[0]
+    bat = vadd(v_at(g_pos, n - 1), qrot(q_at(g_rot, n - 1), (eoa[0], eoa[1], eoa[2])))
+    ma = _both_columns(prot, rp, fa, ea, bat, point, g_rot, g_pos, r, cols, colw, dofs)
+    rh = v_at(g2_pos, eb.shape[0] - 1)
+    return ma, _grip_columns(q_at(g_rot, rp), fb, eb, rh, g2_rot, g2_pos, cols, colw, dofs, 3, ma), 9
 
 
 @kernel
 def lm_solve(kind, prot, ppos, ca, pa, cb, pb, rp, goal, tol, ori_tol, damp, max_iter, w):
     """Levenberg–Marquardt from the current pose(s), in place: a step that does not
     lower the residual is undone and the damping raised. Returns (point, residual,
-    steps taken) with point as :func:`residual`'s."""
-    point, res = residual(kind, prot, ppos, ca, pa, cb, pb, rp, goal, w)
+    steps taken) with point as :func:`residual`'s. (The loop hands its callees
+    arrays, not records: see engine.kinematics_nb on reference counts.)"""
+    la, ea, lb, eb = pa.local, pa.euler, pb.local, pb.euler
+    bak_l, bak_e, bak2_l, bak2_e, step = w.bak_l, w.bak_e, w.bak2_l, w.bak2_e, w.step
+    cols, colw, dofs, r = step.cols, step.colw, step.dofs, step.r
+    G = (w.g_rot, w.g_pos, w.g2_rot, w.g2_pos, r)
+    ga = (ca.link, ca.offsets, ca.order, ca.eff_off)
+    gb = (cb.link, cb.offsets, cb.order, cb.eff_off)
+    fa, wa, fb = ca.free, ca.weight, cb.free
+    lo_a, hi_a, lo_b, hi_b = pa.lo, pa.hi, pb.lo, pb.hi
+    n, nb, max_step = la.shape[0], lb.shape[0], damp.max_step
+    two = kind == BOTH
+    point, res = residual(kind, prot, ppos, ga, la, gb, lb, rp, goal, G)
     lam = damp.lam0
     it = 0
     while it < max_iter:
-        if converged(kind, ca, point, res, goal, tol, ori_tol, w):
+        if converged(kind, n, point, res, goal, tol, ori_tol, G[0], r):
             break
         it += 1
-        save_pose(pa, w.bak_l, w.bak_e)
-        save_pose(pb, w.bak2_l, w.bak2_e)
-        _step(kind, prot, ppos, ca, pa, cb, pb, rp, point, goal, lam, damp.max_step, w)
-        point2, res2 = residual(kind, prot, ppos, ca, pa, cb, pb, rp, goal, w)
+        copy_rows(bak_l, la, n)
+        copy_rows(bak_e, ea, n)
+        if two:
+            copy_rows(bak2_l, lb, nb)
+            copy_rows(bak2_e, eb, nb)
+        # the columns are taken at the residual's FK (still in G)
+        ma, m, R = _columns(kind, prot, rp, point, goal, fa, wa, ga[3], ea, fb, eb, G, cols, colw, dofs)
+        if dls_step(step, ma, m, R, lam, max_step, ea, lo_a, hi_a, eb, lo_b, hi_b):
+            _write_locals(dofs, 0, ma, la, ea)
+            _write_locals(dofs, ma, m, lb, eb)
+        point2, res2 = residual(kind, prot, ppos, ga, la, gb, lb, rp, goal, G)
         if not res2 < res:
             # overshoot (or a limit in the way): undo and damp harder
-            restore_pose(pa, w.bak_l, w.bak_e)
-            restore_pose(pb, w.bak2_l, w.bak2_e)
-            point, res = residual(kind, prot, ppos, ca, pa, cb, pb, rp, goal, w)
+            copy_rows(la, bak_l, n)
+            copy_rows(ea, bak_e, n)
+            if two:
+                copy_rows(lb, bak2_l, nb)
+                copy_rows(eb, bak2_e, nb)
+            point, res = residual(kind, prot, ppos, ga, la, gb, lb, rp, goal, G)
             lam *= 4.0
             if lam > damp.lam_max:
                 break
