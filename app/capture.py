@@ -13,7 +13,13 @@ import tempfile
 import time
 from pathlib import Path
 
+import imageio.v2 as iio2
+import imageio.v3 as iio
 import numpy as np
+
+from engine import bvh
+from engine.atomic import atomic_output   # refuses a missing folder: a typo makes no tree
+from engine.gltf_export import write_gltf
 
 
 def read_rgb(fbo) -> np.ndarray:
@@ -25,9 +31,7 @@ def read_rgb(fbo) -> np.ndarray:
 
 def write_png(path: str | Path, image: np.ndarray) -> Path:
     """Write a PNG atomically (temp file in the same folder, then rename)."""
-    import imageio.v3 as iio
     path = Path(path)
-    from engine.atomic import atomic_output   # refuses a missing folder: a typo makes no tree
     with atomic_output(path) as tmp:
         iio.imwrite(tmp, image, extension=".png")
     return path
@@ -112,18 +116,10 @@ def new_export_dir(folder: str | os.PathLike | None = None) -> Path:
     return reserve_new(Path.cwd() if folder is None else folder, "hitpoint_export_", "", directory=True)
 
 
-def have_ffmpeg() -> bool:
-    try:
-        import imageio_ffmpeg  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def check_formats(formats) -> tuple[str, ...]:
     """Export formats as a tuple of known names (ValueError names the bad one)."""
-    if formats is None:   # the default skips the video rather than failing without ffmpeg
-        return tuple(f for f in DEFAULT_EXPORT_FORMATS if f != "mp4" or have_ffmpeg())
+    if formats is None:
+        return DEFAULT_EXPORT_FORMATS
     if isinstance(formats, str):
         formats = [formats]
     names = tuple(dict.fromkeys(str(f).lower().lstrip(".") for f in formats))
@@ -160,10 +156,7 @@ def write_frames(images, out_dir: Path, stem: str, fps: float, png: bool = True,
     ``{stem}.mp4`` (H.264, yuv420p: plays everywhere) in ``out_dir``.
     Returns the number of frames."""
     writer = None
-    if mp4:
-        if not have_ffmpeg():
-            raise RuntimeError("mp4 export needs imageio-ffmpeg (pip install imageio-ffmpeg)")
-        import imageio.v2 as iio2
+    if mp4:     # imageio-ffmpeg (a dependency) bundles the ffmpeg binary
         writer = iio2.get_writer(out_dir / f"{stem}.mp4", fps=fps, codec="libx264", macro_block_size=2,
                                  ffmpeg_log_level="error")
     count = 0
@@ -181,8 +174,6 @@ def write_frames(images, out_dir: Path, stem: str, fps: float, png: bool = True,
 
 def write_motion(out_dir: Path, stem: str, skeleton, clip, formats) -> list[Path]:
     """The clip as ``{stem}.bvh`` / ``.glb`` / ``.gltf`` in ``out_dir`` (those asked for)."""
-    from engine import bvh
-    from engine.gltf_export import write_gltf
     paths = []
     if "bvh" in formats:
         paths.append(out_dir / f"{stem}.bvh")

@@ -1,42 +1,32 @@
 """The ``hitpoint`` command. Each sub-command lives in its own ``app.cmd_*``
-module exposing ``register(cli)``; modules import heavy libraries lazily."""
+module exposing ``register(cli)``; they import heavy libraries (numba, GL, imgui) only
+when they run, so that ``--help`` and a bad option answer at once."""
 from __future__ import annotations
 
-import importlib
 import sys
 
 import typer
 
+from app import cmd_adapt, cmd_analyse, cmd_bench, cmd_render, cmd_shots, cmd_synth, cmd_view
 from app.errors import one_line
 
 cli = typer.Typer(add_completion=False, no_args_is_help=False,
                   help="Hitpoint: adapt motion-captured cricket shots to any hit point.")
 
-COMMAND_MODULES = [
-    "app.cmd_view", "app.cmd_shots", "app.cmd_render", "app.cmd_adapt",
-    "app.cmd_bench", "app.cmd_analyse", "app.cmd_synth",
-]
-
-for _name in COMMAND_MODULES:
-    try:
-        _mod = importlib.import_module(_name)
-    except ModuleNotFoundError as _e:  # a command not built yet
-        if _e.name != _name:
-            raise
-        continue
-    _mod.register(cli)
+for _module in (cmd_view, cmd_shots, cmd_render, cmd_adapt, cmd_bench, cmd_analyse, cmd_synth):
+    _module.register(cli)
+NO_ENGINE_COMMANDS = ("shots",)     # commands that run no compiled engine code
 
 
 @cli.callback(invoke_without_command=True)
 def _default(ctx: typer.Context):
-    """With no sub-command, open the viewer on the bundled library."""
+    """With no sub-command, open the viewer on the bundled library. Before any command
+    that runs the engine: a note on stderr if its kernels compile for more than a moment."""
+    if ctx.invoked_subcommand not in NO_ENGINE_COMMANDS:
+        from app import compile_note       # imports numba (~0.25 s): not for --help or `shots`
+        compile_note.install()
     if ctx.invoked_subcommand is None:
-        try:
-            from app.cmd_view import view
-        except ModuleNotFoundError:
-            typer.echo(ctx.get_help())
-            raise typer.Exit(0)
-        ctx.invoke(view)
+        ctx.invoke(cmd_view.view)
 
 
 def run(argv=None) -> int:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import glfw
 import numpy as np
+from imgui_bundle import imgui
 
 from app import picking
 from app.camera import OrbitCamera
@@ -100,10 +101,11 @@ class Interaction:
             self.buttons_down.add(button)
             if self.gesture is None and not self._ui_wants_mouse() and self._in_viewport(*self.mouse):
                 self.gesture = self._start_gesture(button)
+                self.state.gesture = self.gesture.kind if self.gesture is not None else ""
         else:
             self.buttons_down.discard(button)
             if self.gesture is not None and self.gesture.button == button:
-                self.gesture = None
+                self.gesture, self.state.gesture = None, ""
                 self.state.dragging_target = False
                 self.state.hover_target = self.over_target(*self.mouse)
         self._update_cursor()
@@ -176,7 +178,6 @@ class Interaction:
             self.state.cursor = "arrow"
 
     def _key_to_imgui(self, key: int, down: bool) -> None:
-        from imgui_bundle import imgui
         k = _IMGUI_KEYS().get(key)
         if k is not None:
             self.io.add_key_event(k, bool(down))
@@ -199,7 +200,6 @@ def _IMGUI_KEYS() -> dict:
     """glfw key -> ImGui key for the keys the panel's widgets use."""
     global _KEYMAP
     if _KEYMAP is None:
-        from imgui_bundle import imgui
         K = imgui.Key
         _KEYMAP = {glfw.KEY_TAB: K.tab, glfw.KEY_LEFT: K.left_arrow, glfw.KEY_RIGHT: K.right_arrow,
                    glfw.KEY_UP: K.up_arrow, glfw.KEY_DOWN: K.down_arrow, glfw.KEY_HOME: K.home,

@@ -3,7 +3,6 @@ state is read for readouts. Top to bottom: shot and solver settings (falloff
 first), playback, overlays, readouts, the blend plot, the PC pad, messages."""
 from __future__ import annotations
 
-import importlib
 import time
 
 import numpy as np
@@ -11,20 +10,23 @@ from imgui_bundle import imgui, implot
 
 from app.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, RENDER_SCALE_RANGE,
                           SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, ViewerSettings)
+from app.padwidget import draw_pc_pad
 from app.state import AppState
 
 PANEL_WIDTH = 360
+VIEWPORT_SHOWS = {"pc pad": "PC pad pose", "adapted": "adapted shot", "source": "source shot"}
 _WINDOW_FLAGS = (imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize
                  | imgui.WindowFlags_.no_collapse | imgui.WindowFlags_.no_saved_settings)
 ERROR_COLOR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
 DIM = imgui.ImVec4(0.65, 0.67, 0.7, 1.0)
 BLUE = imgui.ImVec4(0.3, 0.55, 1.0, 1.0)
 RED = imgui.ImVec4(0.95, 0.25, 0.2, 1.0)
+COMPILING_COLOR = imgui.ImVec4(1.0, 0.8, 0.3, 1.0)
 
 
-def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, extras: dict) -> None:
-    """The panel window at ``rect = (x, y, w, h)``; ``extras`` carries UI-only
-    callbacks/results owned by the loop (e.g. a pc-pad module)."""
+def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, pad_requests: list) -> None:
+    """The panel window at ``rect = (x, y, w, h)``; what the user asks of the PC pad is
+    appended to ``pad_requests`` (the update carries it out)."""
     x, y, w, h = rect
     imgui.set_next_window_pos(imgui.ImVec2(x, y))
     imgui.set_next_window_size(imgui.ImVec2(w, h))
@@ -34,10 +36,10 @@ def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, extras: d
         _settings_section(settings, state)
         _readouts_section(settings, state)
         _blend_plot(settings, state)
-        _pc_pad(state, extras)
+        _pc_pad(state, pad_requests)
         _playback_section(settings, state)
         _overlay_section(settings)
-        _capture_section(settings, extras)
+        _capture_section(settings, state)
     finally:
         imgui.end()
 
@@ -204,7 +206,7 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
                 ("render", f"{t.get('render', r.render_ms):.2f} ms"),
                 ("frame", f"{t.get('frame', r.frame_ms):.2f} ms  ({t.get('fps', r.fps):.0f} fps)"),
                 ("frame shown", f"{settings.frame:.2f} / {state.num_frames - 1}"),
-                ("viewport shows", "PC pad pose" if state.pose_source == "pc pad" else "adapted shot")]
+                ("viewport shows", VIEWPORT_SHOWS.get(state.pose_source, state.pose_source))]
         if state.desired_hit_point is not None:
             d = state.desired_hit_point
             rows.append(("desired hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))
@@ -242,33 +244,20 @@ def _blend_plot(settings: ViewerSettings, state: AppState) -> None:
         implot.end_plot()
 
 
-def _pc_pad(state: AppState, extras: dict) -> None:
-    module = extras.get("pcpad")
-    if module is None:
+def _pc_pad(state: AppState, pad_requests: list) -> None:
+    if not imgui.collapsing_header("PC pad", imgui.TreeNodeFlags_.default_open):
         return
-    if imgui.collapsing_header("PC pad", imgui.TreeNodeFlags_.default_open):
-        if state.dragging_target:
-            # A drag can switch shots every frame; the pad refits its PCA per
-            # shot (~100 ms), so it waits for the release.
-            imgui.text_colored(DIM, "PC pad: updates when the target is released")
-            return
-        try:
-            module.draw_pc_pad(state)
-        except Exception as e:  # someone else's widget must not take the window down
-            state.report(f"pc pad: {type(e).__name__}: {e}")
+    if state.engine_warmup is not None and not state.engine_warmup.ready.is_set():
+        imgui.text_colored(DIM, "PC pad: ready once the engine has compiled")
+    elif state.dragging_target:
+        # A drag can switch shots every frame; the pad refits its PCA per
+        # shot (~100 ms), so it waits for the release.
+        imgui.text_colored(DIM, "PC pad: updates when the target is released")
+    else:
+        draw_pc_pad(state, pad_requests)
 
 
-def load_pcpad():
-    """``app.pcpad`` if it exists (the PCA engineer's module), else None."""
-    try:
-        return importlib.import_module("app.pcpad")
-    except ModuleNotFoundError as e:
-        if e.name != "app.pcpad":
-            raise
-        return None
-
-
-def _capture_section(settings: ViewerSettings, extras: dict) -> None:
+def _capture_section(settings: ViewerSettings, state: AppState) -> None:
     if not imgui.collapsing_header("Capture", imgui.TreeNodeFlags_.default_open):
         return
     if imgui.button("Screenshot (F12)"):
@@ -281,34 +270,38 @@ def _capture_section(settings: ViewerSettings, extras: dict) -> None:
                           "mp4 + PNG frames (viewport size), BVH and glTF (.glb, metres)")
     if imgui.button("Reload shot library"):
         settings.reload_requested = True
-    _last_capture(extras)
-    if extras.get("session"):            # where the session autosaves (app.session)
+    _last_capture(state)
+    if state.session_line:            # where the session autosaves (app.session)
         imgui.push_text_wrap_pos(0.0)
-        imgui.text_colored(DIM, extras["session"])
+        imgui.text_colored(DIM, state.session_line)
         imgui.pop_text_wrap_pos()
 
 
-def _last_capture(extras: dict) -> None:
+def _last_capture(state: AppState) -> None:
     """Where the last screenshot or export went, or why the export failed."""
-    export = extras.get("last_export")          # (ok, one line) from App._captures
-    last = extras.get("last_capture")
+    export, last = state.last_export, state.last_capture
     if not export and not last:
         return
     imgui.push_text_wrap_pos(0.0)
-    if export and export[0] and last and export[1].startswith(last):
-        imgui.text_colored(DIM, f"exported {export[1]}")
+    if export and export.ok and last and export.line.startswith(last):
+        imgui.text_colored(DIM, f"exported {export.line}")
     elif last:
         imgui.text_colored(DIM, f"wrote {last}")
-    if export and not export[0]:
-        imgui.text_colored(ERROR_COLOR, export[1])
+    if export and not export.ok:
+        imgui.text_colored(ERROR_COLOR, export.line)
     imgui.pop_text_wrap_pos()
 
 
 def _messages(state: AppState) -> None:
     status = {k: v for k, v in state.status.items() if v != "ok"}
-    if not state.messages and not status:
+    warmup = state.engine_warmup
+    compiling = warmup.stage if warmup is not None else ""
+    if not state.messages and not status and not compiling:
         return
     imgui.push_text_wrap_pos(0.0)
+    if compiling:
+        imgui.text_colored(COMPILING_COLOR, f"compiling the {compiling}... (first start after an install or "
+                                            f"update; the source shot shows meanwhile)")
     for piece, why in status.items():
         imgui.text_colored(ERROR_COLOR, f"{piece}: {why}")
     now = time.time()

@@ -17,10 +17,10 @@ it (the PC-score points, their times, the preset and clean-up options), not the
 clip: re-synthesis is deterministic, so the session (``app.session``) stores
 only that and the clip is made again when the take is picked.
 
-The viewer calls :func:`draw_pc_pad` from the panel (before its engine update)
-and, after the update, :func:`active_pose`: when it returns a pose the viewport
-shows it instead of the adapted shot. :func:`set_scores` serves scripted drags.
-The logic (everything but ``draw_pc_pad``) works without imgui.
+This module is the pad's model, run in the frame's update (``app.update``): the
+widget (``app.padwidget``) and scripts only ask, with :class:`PadRequest`; :func:`step`
+refits, plays and carries the requests out, and :func:`active_pose` is the pose the
+viewport shows instead of the adapted shot. No imgui here.
 """
 from __future__ import annotations
 
@@ -29,7 +29,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.capture import safe_stem, write_new
 from app.state import Pose
+from engine import bvh, cleanup, synth
+from engine import pca as pcam
 
 SECTION_RGBA = ((0.93, 0.26, 0.22, 1.0), (0.25, 0.78, 0.35, 1.0), (0.30, 0.55, 1.0, 1.0))
 DRAWN_RGBA = (1.0, 0.62, 0.15, 1.0)
@@ -41,6 +44,7 @@ MAX_TAKE_POINTS = 4000        # points of one drawn stroke (over a minute of dra
 MAX_TAKES_PER_SHOT = 64       # the oldest take of a shot goes when a new one would exceed this
 DRAWN, SOURCE = "drawn", "source (2 PCs)"
 TAKE_KINDS = (DRAWN, SOURCE, *PRESET_LABELS)
+PAD_MODES = ("pose", "draw")      # drag the marker | record a path
 
 
 @dataclass
@@ -107,7 +111,7 @@ class PadState:
 
 
 def pad_state(state) -> PadState:
-    pad = getattr(state, "pc_pad", None)
+    pad = state.pc_pad
     if pad is None:
         pad = PadState()
         state.pc_pad = pad
@@ -122,8 +126,6 @@ def sync(state) -> PadState | None:
         return None
     key = (state.shot_index, shot.name, shot.num_frames)
     if pad.shot_key != key:
-        from engine import pca as pcam
-        from engine import synth
         pad.pca = pcam.fit_clip(rig, shot.clip, "body")
         pad.sections = synth.shot_sections(shot.fk[1][:, rig.bat_joint], shot.hit_frame)
         pad.guide = synth.source_path(pad.pca)
@@ -191,7 +193,6 @@ def _add_stroke_point(pad: PadState, s) -> None:
 def finish_stroke(state) -> bool:
     """Turn the recorded stroke into an animation with the stroke's timing (a
     stroke drawn without time, e.g. in one frame, is stretched over the shot)."""
-    from engine import synth
     pad = pad_state(state)
     stroke, pad.stroke = pad.stroke, []
     if len(stroke) < 2:
@@ -211,7 +212,6 @@ def apply_preset(state, preset: str | None = None, amount: float | None = None,
                  replace: bool = False) -> None:
     """Animate a preset variation of the shot (Figure 3.7); ``replace``: in place of
     the take shown (its amount re-made when the slider is let go)."""
-    from engine import synth
     pad = sync(state)
     if pad is None:
         return
@@ -253,7 +253,6 @@ def _make_animation(state, points, times, kind: str, replace: bool = False) -> N
 def synthesise_take(state, take: Take) -> None:
     """Make the take's clip for the current shot (deterministic: the same recipe gives
     the same clip, which is why sessions store recipes, not clips)."""
-    from engine import cleanup, synth
     pad = pad_state(state)
     shot, rig = state.shot, state.rig
     fps = float(shot.clip.fps)
@@ -333,7 +332,7 @@ def release(state) -> None:
 
 def active_pose(state) -> Pose | None:
     """The pose the viewport should show instead of the adapted shot, or None."""
-    pad = getattr(state, "pc_pad", None)
+    pad = state.pc_pad
     if pad is None or pad.shot_key is None:
         return None
     if state.shot is None or pad.shot_key[:2] != (state.shot_index, state.shot.name):
@@ -344,7 +343,6 @@ def active_pose(state) -> Pose | None:
 
 def export_animation(state, path) -> str:
     """Write the current synthesised animation as BVH (atomically)."""
-    from engine import bvh
     pad = pad_state(state)
     if pad.anim is None:
         raise ValueError("no synthesised animation to export")
@@ -352,202 +350,120 @@ def export_animation(state, path) -> str:
     return str(path)
 
 
-# ---------------------------------------------------------------- the widget
-def _u32(rgba, alpha=None):
-    from imgui_bundle import imgui
-    r, g, b, a = rgba
-    return imgui.get_color_u32(imgui.ImVec4(r, g, b, a if alpha is None else alpha))
+# ---------------------------------------------------------------- requests
+@dataclass(frozen=True)
+class PadRequest:
+    """One thing the user asked of the pad (its widget, a script), carried out in order by
+    :func:`step` in the frame's update. ``action`` is a key of :data:`PAD_ACTIONS`."""
+    action: str
+    value: object = None          # the action's argument: scores (2,), a take index, a preset, an option
+    final: bool = False           # "marker": the last point of a drag (draw mode: the stroke becomes a take)
 
 
-def draw_pc_pad(state) -> bool:
-    """Draw the pad in the current imgui window; True when it changed the pose."""
-    from imgui_bundle import imgui
+def _marker(state, pad, r):
+    set_scores(state, r.value, final=r.final)
+
+
+def _stroke_start(state, pad, r):
+    pad.stroke = []
+
+
+def _stroke_end(state, pad, r):
+    finish_stroke(state)
+
+
+def _preset(state, pad, r):
+    apply_preset(state, r.value)
+
+
+def _remake_preset(state, pad, r):
+    """The amount slider let go: the preset shown is made again with the new amount."""
+    if pad.anim is not None and pad.path_kind == pad.preset:
+        apply_preset(state, pad.preset, replace=True)
+
+
+def _take(state, pad, r):
+    show_take(state, int(r.value))
+
+
+def _forget(state, pad, r):
+    if 0 <= pad.take < len(pad.shot_takes(state.shot.name)):
+        delete_take(state, pad.take)
+
+
+def _back(state, pad, r):
+    release(state)
+
+
+def _play(state, pad, r):
+    """Play/pause: pause what plays, play the paused take, or else the shot's own 2-PC path."""
+    if pad.playing:
+        pad.playing = False
+    elif pad.anim is not None:
+        pad.playing = True
+    else:
+        play_source_path(state)
+
+
+def _export(state, pad, r):
+    """The take shown as BVH in a new file of the working directory (never over an earlier one)."""
+    out = write_new(".", f"hitpoint_synth_{safe_stem(state.shot.name)}_", ".bvh",
+                    lambda path: export_animation(state, path))
+    pad.info = f"wrote {out}"
+
+
+def _option(name: str):
+    def set_option(state, pad, r):
+        setattr(pad, name, r.value)
+    return set_option
+
+
+# action -> (carry it out, what its value must be: None, "scores", "index", a tuple of choices, bool, float)
+PAD_ACTIONS = {
+    "marker": (_marker, "scores"), "stroke_start": (_stroke_start, None), "stroke_end": (_stroke_end, None),
+    "preset": (_preset, tuple(PRESET_LABELS)), "remake_preset": (_remake_preset, None),
+    "take": (_take, "index"), "forget": (_forget, None), "back": (_back, None), "play": (_play, None),
+    "export": (_export, None), "mode": (_option("mode"), PAD_MODES), "amount": (_option("amount"), float),
+    "fix_hand": (_option("fix_hand"), bool), "plant_feet": (_option("plant_feet"), bool),
+    "loop": (_option("loop"), bool),
+}
+
+
+def check_request(action, value=None, final: bool = False) -> PadRequest:
+    """A PadRequest whose value suits its action, or ValueError naming what is wrong (scripts
+    are checked with this when loaded)."""
+    if action not in PAD_ACTIONS:
+        raise ValueError(f"unknown PC pad action {action!r} (known: {', '.join(PAD_ACTIONS)})")
+    kind = PAD_ACTIONS[action][1]
+    if kind == "scores":
+        value = np.asarray(value, float).reshape(-1)[:2]
+        ok = value.size == 2 and bool(np.isfinite(value).all())
+    elif kind == "index":
+        ok = isinstance(value, int) and not isinstance(value, bool) and 0 <= value < MAX_TAKES_PER_SHOT
+    elif kind is float:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 <= value <= 1.0
+        value = float(value) if ok else value
+    elif kind is bool:
+        ok = isinstance(value, bool)
+    else:
+        ok = value is None if kind is None else value in kind
+    if not ok:
+        raise ValueError(f"PC pad action {action!r}: bad value {value!r}")
+    return PadRequest(action, value, bool(final))
+
+
+def step(state, requests, dt: float) -> None:
+    """The pad's part of the frame's update: refit for a new shot, advance what plays, carry out
+    ``requests`` in order. While the target is dragged nothing happens: a drag can switch shots
+    every frame and the refit takes ~100 ms (the widget says so)."""
+    if state.dragging_target:
+        return
     pad = sync(state)
     if pad is None:
-        imgui.text_disabled("PC pad: no shot loaded")
-        return False
-    io = imgui.get_io()
-    advance(pad, io.delta_time)
-    changed = False
-
-    ex = pad.pca.explained
-    imgui.text(f"PC1 {100 * ex[0]:.1f}%  PC2 {100 * ex[1] if len(ex) > 1 else 0:.1f}%  "
-               f"together {100 * pad.pca.cumulative[min(1, len(ex) - 1)]:.1f}%")
-    if imgui.radio_button("pose", pad.mode == "pose"):
-        pad.mode = "pose"
-    imgui.same_line()
-    if imgui.radio_button("draw path", pad.mode == "draw"):
-        pad.mode = "draw"
-    imgui.same_line()
-    if imgui.button("back to shot"):
-        release(state)
-        changed = True
-    changed |= _take_list(state, pad)
-    changed |= _pad_area(state, pad)
-    changed |= _preset_controls(state, pad)
-    _variance_plot(pad)
-    return changed
-
-
-def _take_list(state, pad: PadState) -> bool:
-    """The shot's takes (drawn paths, presets): pick one to play it again, or forget it."""
-    from imgui_bundle import imgui
-    takes = pad.shot_takes(state.shot.name)
-    if not takes:
-        imgui.text_disabled("takes: none yet (draw a path or pick a preset)")
-        return False
-    changed = False
-    preview = takes[pad.take].label(pad.take) if 0 <= pad.take < len(takes) else f"{len(takes)} kept"
-    imgui.set_next_item_width(imgui.get_content_region_avail().x - 70)
-    if imgui.begin_combo("##takes", f"take: {preview}"):
-        for i, take in enumerate(takes):
-            if imgui.selectable(f"{take.label(i)}##take{i}", i == pad.take)[0]:
-                _guarded(state, show_take, i)
-                changed = True
-        imgui.end_combo()
-    imgui.same_line()
-    if imgui.button("forget") and 0 <= pad.take < len(takes):
-        delete_take(state, pad.take)
-        changed = True
-    if imgui.is_item_hovered():
-        imgui.set_tooltip("remove the take shown from this shot's list (and the saved session)")
-    return changed
-
-
-def _guarded(state, fn, *args) -> None:
-    """``fn(state, *args)``; a ValueError (a bad take) is a panel message."""
-    try:
-        fn(state, *args)
-    except ValueError as e:
-        state.report(f"pc pad: {e}")
-
-
-def _pad_area(state, pad: PadState) -> bool:
-    from imgui_bundle import imgui
-    width = imgui.get_content_region_avail().x
-    size = float(max(min(width, 420.0), 80.0))
-    imgui.push_style_var(imgui.StyleVar_.window_padding, imgui.ImVec2(0, 0))
-    imgui.begin_child("##pc_pad_area", imgui.ImVec2(size, size), imgui.ChildFlags_.borders,
-                      imgui.WindowFlags_.no_scrollbar | imgui.WindowFlags_.no_scroll_with_mouse)
-    origin = imgui.get_cursor_screen_pos()
-    ox, oy = origin.x, origin.y
-    imgui.invisible_button("##pc_pad_button", imgui.ImVec2(size, size))
-    active, activated = imgui.is_item_active(), imgui.is_item_activated()
-    deactivated, hovered = imgui.is_item_deactivated(), imgui.is_item_hovered()
-    span = pad.hi - pad.lo
-
-    def px(s):
-        u = (np.asarray(s, float) - pad.lo) / span
-        return imgui.ImVec2(ox + float(u[0]) * size, oy + float(1 - u[1]) * size)
-
-    def scores_at(pos):
-        return pad.lo + span * np.array([(pos.x - ox) / size, 1 - (pos.y - oy) / size])
-
-    dl = imgui.get_window_draw_list()
-    dl.add_rect_filled(imgui.ImVec2(ox, oy), imgui.ImVec2(ox + size, oy + size), _u32((0.08, 0.09, 0.11, 1)))
-    axis = _u32((1, 1, 1, 0.18))
-    dl.add_line(px((pad.lo[0], 0)), px((pad.hi[0], 0)), axis, 1.0)
-    dl.add_line(px((0, pad.lo[1])), px((0, pad.hi[1])), axis, 1.0)
-    # the shot's own path, by section (Figure 3.4)
-    for label, seg in pad.sections.segments(pad.guide):
-        if len(seg) > 1:
-            dl.add_polyline([px(p) for p in seg], _u32(SECTION_RGBA[label]), 2.5, 0)
-    if pad.path is not None and len(pad.path) > 1:
-        col = DRAWN_RGBA if pad.path_kind == "drawn" else PRESET_RGBA
-        dl.add_polyline([px(p) for p in pad.path], _u32(col, 0.9), 2.0, 0)
-    if len(pad.stroke) > 1:
-        dl.add_polyline([px(p[:2]) for p in pad.stroke], _u32(DRAWN_RGBA), 2.5, 0)
-    # start and hit frame on the guide
-    dl.add_circle_filled(px(pad.guide[0]), 4.0, _u32(SECTION_RGBA[0]))
-    dl.add_circle(px(pad.guide[pad.sections.hit_frame]), 5.0, _u32((1, 1, 0.3, 1)), 0, 1.5)
-    if pad.marker is not None:
-        m = px(pad.marker)
-        dl.add_circle_filled(m, 6.0, _u32(MARKER_RGBA if pad.live or pad.playing else (0.7, 0.7, 0.7, 1)))
-        dl.add_circle(m, 8.0, _u32((0, 0, 0, 1)), 0, 1.5)
-    dl.add_text(imgui.ImVec2(ox + 4, oy + size - 18), _u32((1, 1, 1, 0.5)), "PC1 ->")
-    dl.add_text(imgui.ImVec2(ox + 4, oy + 2), _u32((1, 1, 1, 0.5)), "PC2")
-    changed = False
-    mouse = imgui.get_io().mouse_pos
-    if pad.mode == "pose" and active:
-        set_scores(state, scores_at(mouse))
-        changed = True
-    elif pad.mode == "draw":
-        if activated:
-            pad.stroke = []
-        if active:
-            _add_stroke_point(pad, scores_at(mouse))
-            pad.marker = pad.stroke[-1][:2] if pad.stroke else pad.marker
-        if deactivated:
-            changed = finish_stroke(state)
-    if hovered and not active:
-        s = scores_at(mouse)
-        imgui.set_tooltip(f"PC1 {s[0]:.2f}, PC2 {s[1]:.2f}")
-    imgui.end_child()
-    imgui.pop_style_var()
-    return changed
-
-
-def _preset_controls(state, pad: PadState) -> bool:
-    from imgui_bundle import imgui
-    changed = False
-    imgui.text_colored(imgui.ImVec4(*SECTION_RGBA[0]), "preparation")
-    imgui.same_line()
-    imgui.text_colored(imgui.ImVec4(*SECTION_RGBA[1]), "stroke")
-    imgui.same_line()
-    imgui.text_colored(imgui.ImVec4(*SECTION_RGBA[2]), "return")
-    for i, (key, label) in enumerate(PRESET_LABELS.items()):
-        if i:
-            imgui.same_line()
-        if imgui.button(label):
-            _guarded(state, apply_preset, key)
-            changed = True
-    lo_hi = (0.0, 0.95) if pad.preset == "toned_down" else (0.0, 1.0)
-    c, v = imgui.slider_float("amount", pad.amount, *lo_hi, "%.2f")
-    if c:
-        pad.amount = v
-    if imgui.is_item_deactivated_after_edit() and pad.anim is not None and pad.path_kind == pad.preset:
-        apply_preset(state, pad.preset, replace=True)   # re-made when the slider is let go
-        changed = True
-    _, pad.fix_hand = imgui.checkbox("re-attach right hand", pad.fix_hand)
-    imgui.same_line()
-    _, pad.plant_feet = imgui.checkbox("plant feet", pad.plant_feet)
-    if imgui.button("pause" if pad.playing else "play"):
-        if pad.playing:
-            pad.playing = False
-        elif pad.anim is not None:
-            pad.playing = True
-        else:
-            play_source_path(state)
-        changed = True
-    imgui.same_line()
-    _, pad.loop = imgui.checkbox("loop", pad.loop)
-    if pad.anim is not None:
-        imgui.same_line()
-        if imgui.button("export BVH"):
-            try:
-                from app.capture import safe_stem, write_new   # never over an earlier export
-                out = write_new(".", f"hitpoint_synth_{safe_stem(state.shot.name)}_", ".bvh",
-                                lambda path: export_animation(state, path))
-                pad.info = f"wrote {out}"
-            except (OSError, ValueError) as e:
-                state.report(f"pc pad: export: {e}")
-    if pad.info:
-        imgui.text_disabled(pad.info)
-    return changed
-
-
-def _variance_plot(pad: PadState) -> None:
-    from imgui_bundle import imgui, implot
-    k = min(10, len(pad.pca.explained))
-    xs = np.arange(1, k + 1, dtype=float)
-    ex = 100 * np.asarray(pad.pca.explained[:k], float)
-    cum = 100 * np.asarray(pad.pca.cumulative[:k], float)
-    if implot.begin_plot("##pc_variance", imgui.ImVec2(-1, 130)):
-        implot.setup_axes("PC", "% variance", implot.AxisFlags_.auto_fit, implot.AxisFlags_.lock)
-        implot.setup_axis_limits(implot.ImAxis_.y1, 0, 100, implot.Cond_.always)
-        implot.setup_legend(implot.Location_.east)
-        implot.plot_bars("per PC", xs, ex, 0.6)
-        spec = implot.Spec()
-        spec.line_color, spec.line_weight = imgui.ImVec4(0.95, 0.25, 0.2, 1.0), 2.0
-        implot.plot_line("cumulative", xs, cum, spec=spec)
-        implot.end_plot()
+        return
+    advance(pad, dt)
+    for request in requests:
+        try:
+            PAD_ACTIONS[request.action][0](state, pad, request)
+        except Exception as e:     # a bad take or a failed export: a panel message, not a dead window
+            state.report(f"pc pad: {request.action}: {e}")

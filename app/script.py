@@ -16,7 +16,10 @@ frames per second) and a ``"type"``:
   ``scrub {frame}``, ``key {key}`` (``space``, ``left``, ``right``, ``h``,
   ``s``, ``[``, ``]``, ``f12``, ``r``), ``pcpad_drag {from: [s1,s2], to: [s1,s2],
   frames}`` (scores on the PC pad; ``pcpad_draw``, same fields, draws a path that
-  becomes a take), ``screenshot {path}``, ``export {dir, formats?}`` (a new folder; formats from
+  becomes a take), ``pcpad {action, value?}`` (anything the pad's widget does:
+  ``app.pcpad.PAD_ACTIONS``, e.g. ``mode draw``, ``preset aborted``, ``amount 0.7``,
+  ``remake_preset``, ``take 0``, ``forget``, ``play``, ``back``, ``export``,
+  ``fix_hand false``), ``screenshot {path}``, ``export {dir, formats?}`` (a new folder; formats from
   ``png mp4 bvh glb gltf``, default all but ``gltf``).
 
 Every event is checked when the script is loaded: numbers finite and in range,
@@ -33,7 +36,9 @@ import numpy as np
 
 from app.errors import MAX_POSITION_CM, UserError, number, shorten
 from app.interaction import BUTTON_NAMES, KEY_NAMES, LEFT
+from app.capture import check_formats
 from app.jsonfile import read_json
+from app.pcpad import PadRequest, check_request
 from app.settings import MAX_FRAME_SETTING, check_setting
 from engine.synth import MAX_ABS_SCORE
 
@@ -241,27 +246,28 @@ class ScriptPlayer:
         s0, s1 = _vector(e["from"], 2, "from", MAX_ABS_SCORE, longer=True), _vector(e["to"], 2, "to", MAX_ABS_SCORE, longer=True)
         for i in range(n + 1):
             s = s0 + (s1 - s0) * i / n
-            self._at(f + i, lambda app, s=s, last=(i == n): app.pcpad_drag(s, last))
+            self._ask(f + i, PadRequest("marker", s, final=(i == n)))
 
     def _ev_pcpad_draw(self, f, e):
         """``pcpad_drag`` in the pad's draw mode: the stroke becomes a drawn take (the pad stays in draw mode)."""
-        self._at(f, lambda app: app.pcpad_mode("draw"))
+        self._ask(f, PadRequest("mode", "draw"))
         self._ev_pcpad_drag(f, e)
+
+    def _ev_pcpad(self, f, e):
+        """One of the pad widget's actions (``app.pcpad.PAD_ACTIONS``), checked now."""
+        self._ask(f, check_request(e["action"], e.get("value")))
+
+    def _ask(self, f, request: PadRequest) -> None:
+        self._at(f, lambda app: app.pad_requests.append(request))
 
     def _ev_screenshot(self, f, e):
         path = _text(e["path"], "path", MAX_PATH_CHARS)
         self._at(f, lambda app: app.request_screenshot(path))
 
     def _ev_export(self, f, e):
-        from app.capture import check_formats
         out = _text(e["dir"], "dir", MAX_PATH_CHARS)
         formats = check_formats(e["formats"]) if "formats" in e else None   # bad names fail at load
-
-        def export(app):
-            if formats is not None:   # picked up with the folder by App._captures
-                app.extras.setdefault("export_formats", {})[str(Path(out))] = formats
-            app.request_export(out)
-        self._at(f, export)
+        self._at(f, lambda app: app.request_export(out, formats))
 
 
 def _kind(e) -> str:

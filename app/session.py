@@ -35,8 +35,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+import platformdirs
 
+from app.capture import release, reserve_new
 from app.errors import UserError, shorten
+from app.jsonfile import read_json
+from app.pcpad import MAX_TAKES_PER_SHOT, PRESET_LABELS, TAKE_KINDS, Take, pad_state
+from engine import atomic
 from engine.synth import check_scores, check_times   # what synthesis will accept
 
 SESSION_VERSION = 1
@@ -68,7 +73,6 @@ def data_dir() -> Path:
     override = os.environ.get(DATA_DIR_ENV)
     if override:
         return Path(override)
-    import platformdirs
     return Path(platformdirs.user_data_dir("hitpoint", appauthor=False))
 
 
@@ -78,7 +82,7 @@ def snapshot(settings, state, camera) -> dict:
     return {"version": SESSION_VERSION, "saved_at": time.time(), "settings": _settings_data(settings),
             "camera": {"pivot": np.asarray(camera.pivot, float).tolist(), "yaw": float(camera.yaw),
                        "pitch": float(camera.pitch), "distance": float(camera.distance)},
-            "pc_pad": _pad_data(getattr(state, "pc_pad", None))}
+            "pc_pad": _pad_data(state.pc_pad)}
 
 
 def _settings_data(settings) -> dict:
@@ -113,7 +117,7 @@ def change_key(settings, state, camera) -> tuple:
     """A cheap fingerprint of everything saved (a few dozen numbers, no arrays encoded):
     the frame shown only while paused (playing changes it every frame)."""
     o = settings.overlays
-    pad = getattr(state, "pc_pad", None)
+    pad = state.pc_pad
     pad_key = None if pad is None else (pad.generation, pad.mode, pad.preset, pad.amount, pad.loop,
                                         pad.fix_hand, pad.plant_feet)
     return (settings.engine_key(), None if settings.playing else settings.frame, settings.playing,
@@ -126,7 +130,6 @@ def change_key(settings, state, camera) -> tuple:
 def read(path: Path) -> dict:
     """The session in ``path`` as checked top-level data; UserError (one line) if the file
     cannot be a session at all; ``Newer`` if a newer Hitpoint wrote it."""
-    from app.jsonfile import read_json
     data = read_json(path, "session file", MAX_SESSION_BYTES)
     if not isinstance(data, dict):
         raise UserError(f"{path}: a session is a JSON object, not {type(data).__name__}")
@@ -227,7 +230,6 @@ def _apply_camera(data: dict, camera, dropped: list) -> None:
 
 
 def _apply_pad(data: dict, state, dropped: list) -> None:
-    from app.pcpad import PRESET_LABELS, pad_state
     pad = pad_state(state)
     for name, allowed in (*_PAD_OPTIONS.items(), ("preset", tuple(PRESET_LABELS))):
         if name in data:
@@ -255,7 +257,6 @@ def _apply_pad(data: dict, state, dropped: list) -> None:
 
 def _takes(shot: str, items, dropped: list) -> list:
     """The valid takes of one shot (at most pcpad.MAX_TAKES_PER_SHOT, the newest)."""
-    from app.pcpad import MAX_TAKES_PER_SHOT
     where = f"takes[{shorten(repr(shot))}]"
     if len(shot) > MAX_NAME_CHARS or not isinstance(items, list):
         dropped.append(where)
@@ -274,7 +275,6 @@ def _takes(shot: str, items, dropped: list) -> list:
 
 def take_from_data(item, where: str = "take"):
     """A ``pcpad.Take`` from its stored recipe, every number checked; Invalid names the field."""
-    from app.pcpad import TAKE_KINDS, Take
     if not isinstance(item, dict) or item.get("kind") not in TAKE_KINDS:
         raise Invalid(f"{where}.kind")
     points = item.get("points")
@@ -333,7 +333,6 @@ class Autosave:
             restored = self._restore_file(settings, state, camera)
         if not self.line:
             self.line = f"session autosaves to {self.path}"
-        from app.pcpad import pad_state
         pad_state(state)          # made now, or its first drawing would look like a change
         self._key = change_key(settings, state, camera)
         return restored
@@ -362,7 +361,6 @@ class Autosave:
     def _put_aside(self, kind: str, state) -> Path | None:
         """Rename the session file to ``session.<kind>-<time>.json`` (a new name); if that fails,
         autosave stops, so that the file is never overwritten."""
-        from app.capture import release, reserve_new
         aside = None
         try:
             aside = reserve_new(self.folder, f"session.{kind}-", ".json")
@@ -397,7 +395,6 @@ class Autosave:
 
     def save(self, settings, state, camera) -> bool:
         """Write the session now (atomically); a failure is one panel line and a later retry."""
-        from engine import atomic
         if not self.enabled:
             return False
         text = json.dumps(snapshot(settings, state, camera), separators=(",", ":"), allow_nan=False)

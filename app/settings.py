@@ -10,6 +10,7 @@ import numpy as np
 
 from app.errors import UserError, number, position, shorten
 from app.picking import TARGET_PLANE_Z, clamp_target
+from engine.adapt import AdaptSettings
 
 FALLOFF_RANGE = (20.0, 200.0)       # cm; the dissertation's useful band is 70-110
 FALLOFF_BAND = (70.0, 110.0)
@@ -90,7 +91,6 @@ class ViewerSettings:
 
     def adapt_settings(self):
         """The engine's view of these settings (``engine.adapt.AdaptSettings``)."""
-        from engine.adapt import AdaptSettings
         return AdaptSettings(falloff=self.falloff, wrist_dof=self.wrist_dof, solver=self.solver,
                              iterations=self.iterations, tolerance=self.tolerance,
                              fix_right_hand=self.fix_right_hand)

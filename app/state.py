@@ -6,8 +6,13 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from app.pcpad import PadState
+    from app.warmup import EngineWarmup
 
 
 @dataclass
@@ -46,6 +51,12 @@ class TimingDisplay:
         if not self.shown or now - self._since >= TIMING_PERIOD_S:
             self.shown = {name: total / self._count for name, total in self._sums.items()}
             self._sums, self._count, self._since = {}, 0, now
+
+
+@dataclass(frozen=True)
+class ExportNote:
+    ok: bool
+    line: str          # what was written, or why it failed
 
 
 @dataclass
@@ -87,8 +98,14 @@ class AppState:
     messages: list = field(default_factory=list)      # [(time, text)] newest last
     errors: int = 0                                   # count of reported errors
     status: dict = field(default_factory=dict)        # piece -> "ok" / why it is missing
-    pc_pad: object = None                             # app.pcpad.PadState, owned by the PC pad
-    pose_source: str = "adapted"                      # what the viewport shows: "adapted" | "pc pad"
+    gesture: str = ""                                 # the mouse gesture in the viewport: "target" | "orbit" | "pan" | ""
+    pc_pad: PadState | None = None                    # the PC pad's model (app.pcpad), made by its first step
+    pose_source: str = "adapted"                      # what the viewport shows: "adapted" | "source" | "pc pad"
+    engine_warmup: EngineWarmup | None = None         # the engine compiling behind the window (app.warmup)
+    # what the panel's capture section says
+    last_capture: str = ""                            # the last screenshot or export written
+    last_export: ExportNote | None = None             # how the last export went
+    session_line: str = ""                            # where the session autosaves (app.session)
 
     @property
     def shot(self):

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.atomic import write_text
+
 # frame: one loop iteration, start to start of the next (the frame before is shown or
 # waited for inside it: ``wait``); render and compose: submitting the scene and the UI.
 PHASES = ("frame", "engine", "render", "ui", "compose", "wait")
@@ -51,7 +53,6 @@ class FrameStats:
 
 
 def write_json_atomic(path: str | Path, data) -> None:
-    from engine.atomic import write_text
     write_text(path, json.dumps(data, indent=1) + "\n")
 
 

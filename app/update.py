@@ -1,14 +1,24 @@
-"""The per-frame update: read the settings, advance playback, re-adapt the
-shot through the engine when anything it depends on changed, and put the pose
-and ball of the current frame into the state. No GL, no imgui here."""
+"""The per-frame update: reads the settings (and the PC pad's requests), writes the state.
+It re-adapts the shot through the engine when anything the adaptation depends on changed,
+puts the pose and ball of the frame into the state, and runs the PC pad's model, whose pose
+the viewport shows instead while it drives it. Playback has already moved ``settings.frame``
+(``app.playback``, time as an input). No GL, no imgui here."""
 from __future__ import annotations
 
 import time
 
 import numpy as np
 
+from app import pcpad
+from app.picking import TARGET_PLANE_Z, clamp_target
 from app.settings import ViewerSettings
 from app.state import AppState, Pose
+from engine import ballistics
+from engine.adapt import Adapter
+from engine.choice import BALL_START, choose_shot
+from engine.library import load_library as read_library
+from engine.rig import default_rig
+from engine.skeleton import bind_positions
 
 
 FLIGHT_DT = 1.0 / 120.0   # s between samples of engine.ballistics.fly (its default step)
@@ -17,11 +27,8 @@ FLIGHT_DT = 1.0 / 120.0   # s between samples of engine.ballistics.fly (its defa
 def load_library(state: AppState, manifest=None) -> bool:
     """(Re)load the rig and shot library; on failure keep what was loaded."""
     try:
-        from engine.library import load_library as _load
-        from engine.rig import default_rig
-        from engine.skeleton import bind_positions
         rig = state.rig = state.rig or default_rig()   # the stage still draws without shots
-        shots = _load(manifest, rig=rig)
+        shots = read_library(manifest, rig=rig)
         if not shots:
             raise ValueError("the shot library is empty")
     except Exception as e:  # a bad file: say so, keep the last good library
@@ -36,11 +43,7 @@ def load_library(state: AppState, manifest=None) -> bool:
     state.shot_index = min(max(state.shot_index, 0), len(shots) - 1)
     state.solved_key = None
     state.status["library"] = "ok"
-    try:
-        from engine.choice import BALL_START
-        state.ball_start = np.asarray(BALL_START, float)
-    except ImportError:
-        pass
+    state.ball_start = np.asarray(BALL_START, float)
     return True
 
 
@@ -48,7 +51,6 @@ def default_target(state: AppState, index: int | None = None) -> np.ndarray:
     """A target whose ball path passes exactly through shot ``index``'s FK hit
     point (default: the shot whose target sits nearest waist height behind the
     stumps, so the disc starts clear of the ground and unadapted)."""
-    from app.picking import TARGET_PLANE_Z, clamp_target
     if not len(state.hit_points):
         return clamp_target((0.0, 60.0, TARGET_PLANE_Z))
     if index is None:
@@ -60,45 +62,57 @@ def default_target(state: AppState, index: int | None = None) -> np.ndarray:
     return clamp_target(start + t * d)
 
 
-def update(state: AppState, settings: ViewerSettings, dt: float) -> None:
-    """One frame: playback, re-solve if needed, current pose and ball."""
-    settings.sanitise()
+def update(state: AppState, settings: ViewerSettings, dt: float, pad_requests=()) -> None:
+    """One frame: re-solve if needed, the frame's pose and ball, the PC pad (``pad_requests``:
+    what its widget and scripts asked this frame, in order)."""
     state.readouts.engine_ms = 0.0
     if not state.shots:
         state.pose = state.source_pose = None
         return
     key = settings.engine_key()
-    if key != state.solved_key:
-        solve(state, settings)
+    if key != state.solved_key and solver_ready(state):
+        # the first solve builds the adapter: solved once more, the panel's readout shows a re-solve
+        if solve(state, settings) and state.solved_key is None:
+            solve(state, settings)
         state.solved_key = key
-    advance_playback(state, settings, dt)
+    elif state.adaptation is None:       # the solver compiles: the source of the shot it will adapt
+        state.shot_index = choose(state, settings)[0]
     t0 = time.perf_counter()
     pose_at(state, settings.frame)
     ball_at(state, settings.frame)
+    if pad_ready(state):
+        pcpad.step(state, pad_requests, dt)
+        pad_pose(state)
     state.readouts.engine_ms += (time.perf_counter() - t0) * 1e3
+    if not state.gesture and not settings.playing and solver_ready(state):
+        prewarm(state)      # idle frames only; not in the readout: it is no work of this frame's
 
 
-def advance_playback(state: AppState, settings: ViewerSettings, dt: float) -> None:
-    last = state.num_frames - 1
-    if settings.playing:
-        settings.frame += max(dt, 0.0) * state.fps * settings.playback_rate
-        if settings.frame > last:
-            settings.frame = settings.frame % (last + 1) if settings.loop else float(last)
-            settings.playing = settings.playing and settings.loop
-    settings.frame = float(np.clip(settings.frame, 0.0, last))
+def solver_ready(state: AppState) -> bool:
+    """False while the engine compiles behind the window (``app.warmup``)."""
+    return state.engine_warmup is None or state.engine_warmup.solver_ready.is_set()
+
+
+def pad_ready(state: AppState) -> bool:
+    return state.engine_warmup is None or state.engine_warmup.ready.is_set()
+
+
+def pad_pose(state: AppState) -> None:
+    """While the PC pad drives the pose (live marker or a synthesised take), the viewport
+    shows its pose instead of the shot."""
+    pose = pcpad.active_pose(state)
+    if pose is not None and np.isfinite(pose.global_positions).all():
+        state.pose, state.pose_source = pose, "pc pad"
 
 
 def choose(state: AppState, settings: ViewerSettings) -> tuple[int, np.ndarray]:
-    """Shot index and desired hit point for the ball path to ``settings.target``."""
-    from engine.choice import choose_shot
+    """Shot index and desired hit point for the ball path to ``settings.target`` (a pinned
+    shot no longer in the library counts as none: ``app.playback`` unpins it)."""
     start, target = state.ball_start, np.asarray(settings.target, float)
-    if settings.pinned_shot is None:
-        index, desired = choose_shot(state.hit_points, start, target)
-        return int(index), np.asarray(desired, float)
     names = [s.name for s in state.shots]
     if settings.pinned_shot not in names:
-        settings.pinned_shot = None
-        return choose(state, settings)
+        index, desired = choose_shot(state.hit_points, start, target)
+        return int(index), np.asarray(desired, float)
     index = names.index(settings.pinned_shot)
     # Same rule as the automatic choice: the point of the ball's line nearest the FK hit point.
     d = target - start
@@ -109,7 +123,6 @@ def choose(state: AppState, settings: ViewerSettings) -> tuple[int, np.ndarray]:
 def adapter_for(state: AppState, index: int):
     """The shot's ``engine.adapt.Adapter`` (built once: its __init__ precomputes)."""
     if state.adapters.get(index) is None:
-        from engine.adapt import Adapter
         state.adapters[index] = Adapter(state.rig, state.shots[index])
     return state.adapters[index]
 
@@ -128,15 +141,6 @@ def prewarm(state: AppState) -> bool:
     return False
 
 
-def warm_up(state: AppState, settings: ViewerSettings) -> None:
-    """Solve before the first frame. The first solve loads the compiled engine and builds the
-    shot's adapter (~150 ms here) and would stand in the panel's "whole-shot solve" readout
-    until the target moved; solved once more, the readout shows what a re-solve costs."""
-    if state.shots and solve(state, settings):
-        solve(state, settings)
-        state.solved_key = settings.engine_key()
-
-
 def solve(state: AppState, settings: ViewerSettings) -> bool:
     """Re-adapt the whole shot; on any engine error keep the last good state."""
     t0 = time.perf_counter()
@@ -152,11 +156,6 @@ def solve(state: AppState, settings: ViewerSettings) -> bool:
         ms = (time.perf_counter() - t0) * 1e3
         state.readouts.engine_ms += ms
         state.readouts.solve_ms = ms
-    if index != state.shot_index:
-        old = state.shot
-        if old is not None and not settings.playing and abs(settings.frame - old.hit_frame) < 1e-6:
-            settings.frame = float(state.shots[index].hit_frame)   # watching the hit: stay on it
-        settings.frame = min(settings.frame, state.shots[index].num_frames - 1)
     state.shot_index, state.desired_hit_point, state.adaptation = index, desired, adaptation
     state.flight, state.flight_dt = flight, flight_dt
     state.time_blend = time_based_blend(state.shots[index].num_frames, state.shots[index].hit_frame,
@@ -175,7 +174,6 @@ def check_finite(adaptation) -> None:
 
 def ball_flight(state: AppState, index: int, adaptation, desired) -> tuple[np.ndarray | None, float]:
     """Ball after impact ``(K,3)`` and the time between its samples (s)."""
-    from engine import ballistics
     shot = state.shots[index]
     rig = state.rig
     hand = int(rig.skeleton.parents[rig.bat_joint])      # the bat hangs off the left hand
@@ -220,6 +218,7 @@ def pose_at(state: AppState, frame: float) -> None:
         return
     src_rot, src_pos = shot.fk
     state.source_pose = _interpolate(src_rot, src_pos, frame)
+    state.pose_source = "adapted" if adaptation is not None else "source"
     if adaptation is not None and adaptation.global_positions.shape[0] == shot.num_frames:
         state.pose = _interpolate(adaptation.global_rotations, adaptation.global_positions, frame)
         f = int(round(frame))
@@ -236,9 +235,8 @@ def ball_at(state: AppState, frame: float) -> None:
         state.ball_position = None
         return
     if frame <= shot.hit_frame or state.flight is None or len(state.flight) == 0:
-        from engine.ballistics import incoming_ball
         state.ball_position = np.asarray(
-            incoming_ball(state.ball_start, desired, shot.hit_frame, min(frame, shot.hit_frame),
+            ballistics.incoming_ball(state.ball_start, desired, shot.hit_frame, min(frame, shot.hit_frame),
                           shot.clip.fps), float)
         return
     # After impact: walk the flight polyline at its own sample spacing.

@@ -1,9 +1,10 @@
 """The viewer's main loop: wires the window, ImGui, the input handling, the
 per-frame update, render submission and capture together. Each piece lives in
-its own module; this one only orders them:
+its own module; this one only orders them, one way (``App.frame``):
 
-    events -> UI (panel, timeline: write settings) -> update (engine)
-    -> SceneView -> SceneRenderer -> compose scene + UI -> present
+    poll -> UI (panel, timeline: write settings, ask the PC pad) -> time (app.playback)
+    -> update (engine, PC pad: writes state) -> SceneView -> SceneRenderer
+    -> compose scene + UI -> present
 """
 from __future__ import annotations
 
@@ -14,20 +15,26 @@ from pathlib import Path
 
 import moderngl
 import numpy as np
+from imgui_bundle import imgui, implot
 
-from app import capture
+from app import capture, playback
 from app.camera import OrbitCamera
 from app.compose import BACKGROUND, Compositor
+from app.imgui_gl import ImguiRenderer
 from app.interaction import Interaction
+from app.panel import PANEL_WIDTH, draw_panel
+from app.pcpad import PadRequest
 from app.render.gl import flush
-from app.panel import PANEL_WIDTH, draw_panel, load_pcpad
+from app.render.scene import SceneRenderer
 from app.settings import ViewerSettings
-from app.state import AppState
+from app.state import AppState, ExportNote
 from app.stats import FrameStats
 from app.submit import build_scene_view, scene_key
 from app.timeline import TIMELINE_HEIGHT, draw_timeline
-from app.update import ball_at, default_target, load_library, pose_at, prewarm, update, warm_up
-
+from app.update import ball_at, default_target, load_library, pose_at, update
+from app.warmup import EngineWarmup
+from app.window import open_window
+from engine.skeleton import Clip
 
 
 def layout(window_size: tuple[int, int]) -> dict[str, tuple]:
@@ -46,10 +53,9 @@ class App:
     def __init__(self, size=(1280, 720), headless: bool = False, manifest=None, started_at=None,
                  session=None):
         """``session``: an ``app.session.Autosave`` to restore from and autosave to (None: the
-        run neither reads nor writes a session, as tests and benchmarks want)."""
-        from imgui_bundle import imgui, implot
-        from app.imgui_gl import ImguiRenderer
-        from app.window import open_window
+        run neither reads nor writes a session, as tests and benchmarks want). The engine
+        compiles behind the window (``app.warmup``); headless runs wait for it here, so that
+        scripted runs are reproducible."""
         self.stats = FrameStats(started_at)
         self.headless = headless
         self.manifest = manifest
@@ -64,18 +70,20 @@ class App:
         self.gui = ImguiRenderer(self.ctx)
         self.settings, self.state, self.camera = ViewerSettings(), AppState(), OrbitCamera()
         self.interaction = Interaction(self.settings, self.state, self.camera, io)
-        self.extras: dict = {"pcpad": load_pcpad()}
+        self.pad_requests: list[PadRequest] = []     # asked this frame (widget, scripts), done by the update
         self._install_callbacks()
         if load_library(self.state, manifest):
             self.settings.target = default_target(self.state)
         self.session = session
-        if session is not None:            # before the warm-up: it solves the restored target
+        if session is not None:            # before the warm-up: it compiles for the restored settings
             session.restore(self.settings, self.state, self.camera)
-            self.extras["session"] = session.line
+            self.state.session_line = session.line
         if self.state.shots:
-            warm_up(self.state, self.settings)
+            self.state.engine_warmup = EngineWarmup(self.state, self.settings).start()
         self.scene_renderer = self._make_scene_renderer()
         self.compositor = Compositor(self.ctx)
+        if headless and self.state.engine_warmup is not None:
+            self.state.engine_warmup.wait()
         self._opaque_windows()
         self.frame_index = 0
         self._ui_generation = -1
@@ -93,11 +101,6 @@ class App:
 
     # -- setup ----------------------------------------------------------------
     def _make_scene_renderer(self):
-        try:
-            from app.render.scene import SceneRenderer
-        except ModuleNotFoundError as e:
-            self.state.status["renderer"] = f"not available ({e.name})"
-            return None
         if self.state.rig is None:
             self.state.status["renderer"] = "no rig loaded"
             return None
@@ -125,7 +128,6 @@ class App:
     def _opaque_windows() -> None:
         """Opaque panel and timeline (the frame is never cleared, see app.compose), and
         opaque popups and tooltips: a shot list over the panel's text was hard to read."""
-        from imgui_bundle import imgui
         style = imgui.get_style()
         for col in (imgui.Col_.window_bg, imgui.Col_.popup_bg):
             c = style.color_(col)
@@ -133,42 +135,47 @@ class App:
 
     # -- one frame --------------------------------------------------------------
     def frame(self, dt: float | None = None, render: bool = True) -> None:
-        """One loop iteration. ``render=False`` runs input, UI and update only
-        (long randomised tests)."""
-        from imgui_bundle import imgui
+        """One loop iteration, one way: poll -> UI (writes settings, asks the PC pad) ->
+        time -> update (engine; writes state) -> render -> present (the frame before is shown
+        inside ``_render``). ``render=False`` stops after the update (long randomised tests)."""
         t0 = time.perf_counter()
         dt = (t0 - self._last_time) if dt is None else dt
         self._last_time = t0
         self.window.poll()
-        size = self.window.size
-        rects = layout(size)
-        self.state.viewport = rects["viewport"]
-        io = imgui.get_io()
-        io.display_size = imgui.ImVec2(*size)
-        io.delta_time = max(float(dt), 1e-4)
-
-        imgui.new_frame()
-        draw_panel(self.settings, self.state, rects["panel"], self.extras)
-        draw_timeline(self.settings, self.state, rects["timeline"])
-        imgui.render()
+        rects = layout(self.window.size)
+        self._draw_ui(rects, dt)
         t_ui = time.perf_counter()
         if self.settings.reload_requested:
             self.settings.reload_requested = False
             load_library(self.state, self.manifest)
-
-        update(self.state, self.settings, dt)
+        playback.step(self.settings, self.state, dt)
+        requests, self.pad_requests = self.pad_requests, []
+        update(self.state, self.settings, dt, requests)
         self._track_camera(dt)
-        if self.interaction.gesture is None and not self.settings.playing:
-            prewarm(self.state)      # idle frames only
-        self._pc_pad_pose()
         if self.session is not None:
             self.session.tick(self.settings, self.state, self.camera)
         t_engine = time.perf_counter()
-        if not render:
-            self.window.set_cursor(self.state.cursor)
-            self.frame_index += 1
-            return
+        if render:
+            t_wait, t_render = self._render(rects)
+            self._record(t0, t_ui, t_engine, t_wait, t_render)
+        self.window.set_cursor(self.state.cursor)
+        self.frame_index += 1
 
+    def _draw_ui(self, rects: dict, dt: float) -> None:
+        """The panel and the timeline: they write the settings and the PC pad's requests."""
+        self.state.viewport = rects["viewport"]
+        io = imgui.get_io()
+        io.display_size = imgui.ImVec2(*self.window.size)
+        io.delta_time = max(float(dt), 1e-4)
+        imgui.new_frame()
+        draw_panel(self.settings, self.state, rects["panel"], self.pad_requests)
+        draw_timeline(self.settings, self.state, rects["timeline"])
+        imgui.render()
+
+    def _render(self, rects: dict) -> tuple[float, float]:
+        """Show the frame before, draw this one's scene and UI; the times the wait and the
+        scene's submission ended."""
+        size = self.window.size
         # Only now is the previous frame shown (or, headless, waited for): its
         # rasterising on llvmpipe's worker threads overlapped this frame's input,
         # UI and engine work on this thread.
@@ -191,9 +198,11 @@ class App:
         self._captures()
         flush()
         self._in_flight = True
-        self.window.set_cursor(self.state.cursor)
-        t_end = time.perf_counter()
+        return t_wait, t_render
 
+    def _record(self, t0: float, t_ui: float, t_engine: float, t_wait: float, t_render: float) -> None:
+        """The frame's timings into the readouts, the panel's timing display and the stats."""
+        t_end = time.perf_counter()
         r = self.state.readouts
         r.render_ms, r.frame_ms = (t_end - t_engine) * 1e3, (t_end - t0) * 1e3
         r.fps = self._fps(t_end)
@@ -202,7 +211,6 @@ class App:
         self.stats.record(frame=r.frame_ms, ui=(t_ui - t0) * 1e3, engine=(t_engine - t_ui) * 1e3,
                           wait=(t_wait - t_engine) * 1e3, render=(t_render - t_wait) * 1e3,
                           compose=(t_end - t_render) * 1e3)
-        self.frame_index += 1
 
     def _track_camera(self, dt: float) -> None:
         """How long the camera has held still (``state.camera_still_s``)."""
@@ -231,21 +239,6 @@ class App:
         while len(stamps) > 2 and now - stamps[0] > 1.0:
             stamps.popleft()
         return (len(stamps) - 1) / max(stamps[-1] - stamps[0], 1e-6) if len(stamps) > 1 else 0.0
-
-    def _pc_pad_pose(self) -> None:
-        """While the PC pad drives the pose (live marker or a synthesised
-        animation), the viewport shows its pose instead of the adapted shot."""
-        pad, state = self.extras.get("pcpad"), self.state
-        state.pose_source = "adapted"
-        if pad is None or not hasattr(pad, "active_pose"):
-            return
-        try:
-            pose = pad.active_pose(state)
-        except Exception as e:
-            state.report(f"pc pad: {type(e).__name__}: {e}")
-            return
-        if pose is not None and np.isfinite(pose.global_positions).all():
-            state.pose, state.pose_source = pose, "pc pad"
 
     def _scene_view(self, size, origin=(0, 0)):
         """This frame's SceneView for a view of ``size`` at ``origin`` (lower-left corner,
@@ -294,28 +287,10 @@ class App:
         """Screenshot to ``path``, or (None: F12) to a new time-stamped name claimed when written."""
         self._pending_screenshots.append(Path(path) if path else None)
 
-    def request_export(self, out_dir=None) -> None:
-        """Export into the new folder ``out_dir``, or (None) a new time-stamped one."""
-        self._pending_exports.append(Path(out_dir) if out_dir else None)
-
-    def pcpad_drag(self, scores, last: bool) -> None:
-        """Scripted PC-pad drag: handed to ``app.pcpad`` if it supports it."""
-        pad = self.extras.get("pcpad")
-        fn = getattr(pad, "set_scores", None) if pad is not None else None
-        if fn is None:
-            self.state.report("pc pad: not available for scripted drags")
-            return
-        try:
-            fn(self.state, np.asarray(scores, float), final=last)
-        except Exception as e:
-            self.state.report(f"pc pad: {type(e).__name__}: {e}")
-
-    def pcpad_mode(self, mode: str) -> None:
-        """Scripted: the PC pad's mode, "pose" (drag the marker) or "draw" (record a path)."""
-        from app.pcpad import pad_state
-        if mode not in ("pose", "draw"):
-            raise ValueError(f"unknown PC pad mode {mode!r} (pose or draw)")
-        pad_state(self.state).mode = mode
+    def request_export(self, out_dir=None, formats=None) -> None:
+        """Export into the new folder ``out_dir``, or (None) a new time-stamped one; ``formats``
+        as ``capture.check_formats`` returns them (None: the default ones)."""
+        self._pending_exports.append((Path(out_dir) if out_dir else None, formats))
 
     def screenshot(self) -> np.ndarray:
         """The last composed frame ``(h, w, 3)`` uint8."""
@@ -333,13 +308,11 @@ class App:
             try:
                 image = self.screenshot()
                 written = capture.write_new_png(image) if path is None else capture.write_png(path, image)
-                self.extras["last_capture"] = str(written)
+                self.state.last_capture = str(written)
             except Exception as e:
                 self.state.report(f"screenshot: {type(e).__name__}: {e}")
         while self._pending_exports:
-            out = self._pending_exports.pop(0)
-            # formats a script asked for with this folder (app.script._ev_export)
-            formats = self.extras.get("export_formats", {}).pop(str(out), None)
+            out, formats = self._pending_exports.pop(0)
             claimed = out is None
             try:
                 out = capture.new_export_dir() if claimed else out
@@ -348,16 +321,15 @@ class App:
                 if claimed and out is not None:
                     capture.release(out)
                 self.state.report(f"export: {type(e).__name__}: {e}")
-                self.extras["last_export"] = (False, f"export to {out} failed: {e}")
+                self.state.last_export = ExportNote(False, f"export to {out} failed: {e}")
             else:
-                self.extras["last_capture"] = str(folder)
-                self.extras["last_export"] = (True, capture.describe_export(folder))
+                self.state.last_capture = str(folder)
+                self.state.last_export = ExportNote(True, capture.describe_export(folder))
 
     def export_shot(self, out_dir, formats=None) -> Path:
         """Export the adapted shot (the source shot when nothing is adapted) into
         the new folder ``out_dir``: every frame rendered at the viewport's size
         (PNG sequence, mp4) and the motion as BVH / glTF (``capture.export_shot``)."""
-        from engine.skeleton import Clip
         state, settings = self.state, self.settings
         shot, adapted = state.shot, state.adaptation
         if shot is None:
@@ -392,7 +364,6 @@ class App:
             self.frame()
 
     def close(self) -> None:
-        from imgui_bundle import imgui, implot
         gc.unfreeze()        # what this window froze can be collected again
         try:
             if self.session is not None:

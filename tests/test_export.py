@@ -329,8 +329,8 @@ def test_viewer_export_writes_mp4_bvh_glb(app, rig, tmp_path):
     app.request_export(out)
     app.frame(dt=1 / 60)
     assert app.state.errors == errors, app.state.messages
-    ok, line = app.extras["last_export"]
-    assert ok and line.startswith(str(out)) and app.extras["last_capture"] == str(out)
+    ok, line = app.state.last_export.ok, app.state.last_export.line
+    assert ok and line.startswith(str(out)) and app.state.last_capture == str(out)
     assert app.settings.frame == frame
     assert [p.name for p in tmp_path.iterdir()] == ["export"]        # no temporary folder left
     F, stem = app.state.num_frames, f"{app.state.shot.name}_adapted"
@@ -363,7 +363,7 @@ def test_viewer_export_that_fails_leaves_nothing(app, tmp_path, monkeypatch):
     app.frame(dt=1 / 60)
     assert len(calls) >= 5
     assert list(tmp_path.iterdir()) == []
-    ok, line = app.extras["last_export"]
+    ok, line = app.state.last_export.ok, app.state.last_export.line
     assert not ok and "GPU lost" in line
     assert app.state.errors == errors + 1 and app.settings.frame == frame
 
@@ -374,7 +374,7 @@ def test_viewer_export_never_writes_into_an_existing_folder(app, tmp_path):
     keep.write_text("the user's")
     app.request_export(keep.parent)
     app.frame(dt=1 / 60)
-    assert not app.extras["last_export"][0]
+    assert not app.state.last_export.ok
     assert [p.name for p in keep.parent.iterdir()] == ["mine.txt"] and keep.read_text() == "the user's"
     assert [p.name for p in tmp_path.iterdir()] == ["export"]
 

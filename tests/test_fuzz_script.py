@@ -43,19 +43,17 @@ class FakeInteraction:
 
 class FakeApp:
     def __init__(self):
-        self.settings, self.interaction, self.extras = ViewerSettings(), FakeInteraction(), {}
+        self.settings, self.interaction, self.pad_requests = ViewerSettings(), FakeInteraction(), []
 
     def scrub(self, frame):
         assert math.isfinite(frame)
         self.settings.frame = float(np.clip(frame, 0, 68))
 
-    def pcpad_drag(self, scores, last):
-        assert np.isfinite(scores).all()
 
     def request_screenshot(self, path):
         assert isinstance(path, str)
 
-    def request_export(self, out):
+    def request_export(self, out, formats=None):
         assert isinstance(out, str)
 
 

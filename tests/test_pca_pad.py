@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from app import pcpad
+from app import padwidget, pcpad
 from app.state import AppState
 from engine import quat
 from engine.library import Shot
@@ -94,16 +94,19 @@ def test_widget_draws_headless_and_drags(state):
             imgui.set_next_window_pos(imgui.ImVec2(0, 0))
             imgui.set_next_window_size(imgui.ImVec2(360, 880))
             imgui.begin("panel")
-            changed = pcpad.draw_pc_pad(state)
+            requests = []
+            padwidget.draw_pc_pad(state, requests)
             imgui.end()
             imgui.render()
-            return changed
+            pcpad.step(state, requests, io.delta_time)     # what the update does with them
+            return requests
 
         for _ in range(3):
             frame((5, 5), False)
-        changed = [frame((150 + 3 * i, 200 + 2 * i), True) for i in range(4)]
+        asked = [frame((150 + 3 * i, 200 + 2 * i), True) for i in range(4)]
         frame((160, 210), False)
-        assert any(changed) and state.pc_pad.live and pcpad.active_pose(state) is not None
+        assert any(r.action == "marker" for frame_asked in asked for r in frame_asked)
+        assert state.pc_pad.live and pcpad.active_pose(state) is not None
         assert state.errors == 0
     finally:
         implot.destroy_context(pctx)

@@ -307,9 +307,6 @@ def test_f12_screenshot_and_frame_export(app, tmp_path, monkeypatch):
 
 
 def test_scripted_pc_pad_drag_drives_the_pose(app):
-    pad = app.extras["pcpad"]
-    if pad is None:
-        pytest.skip("app.pcpad not present")
     from app.script import ScriptPlayer
     run(app, 1)
     adapted = app.state.pose.global_positions.copy()
@@ -318,9 +315,53 @@ def test_scripted_pc_pad_drag_drives_the_pose(app):
     assert app.state.pose_source == "pc pad"
     assert not np.allclose(app.state.pose.global_positions, adapted)
     assert np.isfinite(app.state.pose.global_positions).all()
-    pad.release(app.state)
-    run(app, 1)
+    back = ScriptPlayer([{"type": "pcpad", "frame": 0, "action": "back"}])
+    run(app, 1, back)
     assert app.state.pose_source == "adapted"
+
+
+def test_every_pc_pad_action_can_be_scripted(app, tmp_path, monkeypatch):
+    """What the pad's widget does, a script does through the same requests: presets, the
+    amount, a drawn take, the take list, play/pause, the BVH export, back to the shot."""
+    from app.script import ScriptPlayer
+    from app.update import default_target
+    monkeypatch.chdir(tmp_path)
+    app.settings.target = default_target(app.state)
+    run(app, 2)
+    pad, name, errors = app.state.pc_pad, app.state.shot.name, app.state.errors
+    pad.takes.pop(name, None)
+
+    def script(*events):
+        player = ScriptPlayer([{"frame": i, **e} for i, e in enumerate(events)])
+        run(app, player.last_frame + 1, player)
+    script({"type": "pcpad", "action": "fix_hand", "value": False},
+           {"type": "pcpad", "action": "plant_feet", "value": False},
+           {"type": "pcpad", "action": "preset", "value": "aborted"})
+    assert [t.kind for t in pad.takes[name]] == ["aborted"] and pad.playing
+    assert app.state.pose_source == "pc pad"
+    script({"type": "pcpad", "action": "amount", "value": 0.7}, {"type": "pcpad", "action": "remake_preset"})
+    assert [(t.kind, t.amount) for t in pad.takes[name]] == [("aborted", 0.7)]
+    script({"type": "pcpad_draw", "from": [0, 0], "to": [1.0, 0.5], "frames": 6})
+    assert pad.mode == "draw" and [t.kind for t in pad.takes[name]] == ["aborted", "drawn"]
+    script({"type": "pcpad", "action": "take", "value": 0}, {"type": "pcpad", "action": "play"})
+    assert pad.take == 0 and pad.path_kind == "aborted" and not pad.playing
+    script({"type": "pcpad", "action": "export"})
+    assert len(list(tmp_path.glob("hitpoint_synth_*.bvh"))) == 1 and pad.info.startswith("wrote")
+    script({"type": "pcpad", "action": "forget"}, {"type": "pcpad", "action": "mode", "value": "pose"})
+    assert [t.kind for t in pad.takes[name]] == ["drawn"] and pad.mode == "pose"
+    script({"type": "pcpad", "action": "back"})
+    assert app.state.pose_source == "adapted" and app.state.errors == errors, app.state.messages
+    pad.fix_hand = pad.plant_feet = True
+
+
+@pytest.mark.parametrize("event", [{"action": "warp"}, {"action": "preset", "value": "huge"},
+                                   {"action": "take", "value": -1}, {"action": "amount", "value": 2},
+                                   {"action": "loop", "value": "yes"}, {"action": "mode", "value": "paint"}])
+def test_a_bad_pc_pad_action_fails_when_the_script_loads(event):
+    from app.errors import UserError
+    from app.script import ScriptPlayer
+    with pytest.raises(UserError, match="pcpad"):
+        ScriptPlayer([{"type": "pcpad", "frame": 0, **event}])
 
 
 def test_idle_frames_restore_the_scene_exactly_where_it_was_drawn(app):
@@ -377,17 +418,16 @@ def test_startup_objects_are_frozen_out_of_full_collections(app):
     assert gc.get_freeze_count() > 10_000
 
 
-def test_the_engine_is_warm_before_the_first_frame():
-    """The first solve (loading the compiled engine, building the shot's adapter) happens
-    while starting, and once more warm: the panel's solve readout is a re-solve's, and the
-    first frame does not solve again."""
+def test_the_first_solve_is_solved_again_for_the_readout():
+    """The first solve (building the shot's adapter) is solved once more: the panel's solve
+    readout is a re-solve's, and the next frame does not solve again."""
     from app.settings import ViewerSettings
     from app.state import AppState
-    from app.update import default_target, load_library, update, warm_up
+    from app.update import default_target, load_library, update
     state, settings = AppState(), ViewerSettings()
     assert load_library(state, None)
     settings.target = default_target(state)
-    warm_up(state, settings)
+    update(state, settings, 1 / 60)
     assert state.solve_count == 2 and state.adaptation is not None
     update(state, settings, 1 / 60)
     assert state.solve_count == 2 and state.errors == 0

@@ -36,8 +36,10 @@ def test_headless_run_writes_screenshot_and_stats(tmp_path):
     data = json.loads(stats.read_text())
     assert data["frames"] == 24 and data["size"] == [640, 400]
     for phase in ("frame_ms", "engine_ms", "render_ms"):
-        assert set(data[phase]) >= {"median", "p95", "p99"}
-        assert data[phase]["median"] >= 0
+        m = data[phase]
+        assert 0 < m["median"] <= m["p95"] <= m["p99"] <= m["max"], (phase, m)
+        # each frame's engine and render parts lie within that frame: so do their medians
+        assert m["median"] <= data["frame_ms"]["median"], (phase, m, data["frame_ms"])
     assert data["time_to_first_frame_s"] > 0 and data["errors"] == 0, data["messages"]
     assert data["engine_solves"] >= 5          # re-solved while the target moved
 
