@@ -41,35 +41,10 @@ NO_GOAL = ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 @kernel
-def _hinge_turn(prot, g_rot, euler, k, c, u, v):
-    """Shortest turn (rad) of Euler column c of joint k taking u toward v about its axis
-    (False when either has no lever about it)."""
-    axis = hinge_axis(prot, g_rot, euler, k, c)
-    du = dot(u, axis)
-    dv = dot(v, axis)
-    up = (u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])
-    vp = (v[0] - dv * axis[0], v[1] - dv * axis[1], v[2] - dv * axis[2])
-    if vnorm(up) < TINY or vnorm(vp) < TINY:
-        return 0.0, False
-    return math.atan2(dot(axis, cross(up, vp)), dot(up, vp)), True
-
-
-@kernel
-def _set_from_euler(euler, src, lo, hi, free, k, e):
-    """Free columns from e (clamped to the limits), locked ones back to the source."""
-    for c in range(3):
-        if free[k, c]:
-            euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
-        else:
-            euler[k, c] = src[k, c]
-
-
-@kernel
-def ccd_sweep(prot, chain, pose, handle, tol, eff, w):
-    """One CCD pass from the joint nearest the effector up to the chain root.
+def ccd_sweep(prot, kind, free, local, euler, src, lo, hi, g_rot, g_pos, handle, tol, eff):
+    """One CCD pass from the joint nearest the effector up to the chain root (the
+    chain's and pose's arrays, not the records: this runs many times per frame).
     Globals of joints below a turned one go stale (the caller recomputes them)."""
-    euler, src, lo, hi, local = pose.euler, pose.src, pose.lo, pose.hi, pose.local
-    g_rot, g_pos, kind, free = w.g_rot, w.g_pos, chain.kind, chain.free
     for k in range(kind.shape[0] - 1, -1, -1):
         kd = kind[k]
         if kd == KIND_NONE:
@@ -80,9 +55,14 @@ def ccd_sweep(prot, chain, pose, handle, tol, eff, w):
         v = vsub(handle, p)
         if kd < KIND_MULTI:
             c = kd - 1
-            delta, ok = _hinge_turn(prot, g_rot, euler, k, c, u, v)
-            if not ok:
-                continue
+            axis = hinge_axis(prot, g_rot, euler, k, c)
+            du = dot(u, axis)
+            dv = dot(v, axis)
+            up = (u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])
+            vp = (v[0] - dv * axis[0], v[1] - dv * axis[1], v[2] - dv * axis[2])
+            if vnorm(up) < TINY or vnorm(vp) < TINY:
+                continue        # no lever about the axis
+            delta = math.atan2(dot(axis, cross(up, vp)), dot(up, vp))
             old = euler[k, c]
             new = clamp_angle(old + delta, lo[k, c], hi[k, c])
             if new == old:
@@ -93,8 +73,9 @@ def ccd_sweep(prot, chain, pose, handle, tol, eff, w):
             if qd[0] == 1.0:
                 continue
             lc = qmul(qconj(gp), qmul(qd, q_at(g_rot, k)))
-            _set_from_euler(euler, src, lo, hi, free, k,
-                            pick_branch(to_euler_zyx(lc), euler, src, free, lo, hi, k))
+            e = pick_branch(to_euler_zyx(lc), euler, src, free, lo, hi, k)
+            for c in range(3):      # free columns clamped to the limits, locked ones back to the source
+                euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c]) if free[k, c] else src[k, c]
         lq = from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
         old_g = q_at(g_rot, k)
         new_g = qmul(gp, lq)
@@ -117,11 +98,13 @@ def ccd_frame(prot, ppos, chain, pose, handle, tol, max_iter, w):
     is fixed up a little per sweep). When a sweep gains less than half, Newton
     steps weighted by ``chain.weight`` finish the last centimetres (all-zero
     weights: pure CCD)."""
-    eff = chain_fk(prot, ppos, chain, pose.local, w.g_rot, w.g_pos)
+    kind, free, weight = chain.kind, chain.free, chain.weight
+    local, euler, src, lo, hi = pose.local, pose.euler, pose.src, pose.lo, pose.hi
+    g_rot, g_pos = w.g_rot, w.g_pos
+    eff = chain_fk(prot, ppos, chain, local, g_rot, g_pos)
     err = vnorm(vsub(eff, handle))
     if not err >= tol:          # also stops on a NaN handle (pose stays the source)
         return err, 0
-    weight = chain.weight
     do_polish = False
     for k in range(weight.shape[0]):
         if weight[k] > 0.0:
@@ -131,8 +114,8 @@ def ccd_frame(prot, ppos, chain, pose, handle, tol, max_iter, w):
     while it < max_iter:
         it += 1
         start_err = err
-        ccd_sweep(prot, chain, pose, handle, tol, eff, w)
-        eff = chain_fk(prot, ppos, chain, pose.local, w.g_rot, w.g_pos)
+        ccd_sweep(prot, kind, free, local, euler, src, lo, hi, g_rot, g_pos, handle, tol, eff)
+        eff = chain_fk(prot, ppos, chain, local, g_rot, g_pos)
         err = vnorm(vsub(eff, handle))
         if err < tol:
             break
