@@ -3,13 +3,20 @@ from __future__ import annotations
 
 import json
 import os
+import time
 from pathlib import Path
 from typing import Optional
 
+import numpy as np
 import typer
 
 from app.errors import UserError, cli_errors, number, position, shorten
 from app.errors import falloff as falloff_cm
+from engine import bvh, choice
+from engine.gltf_export import write_gltf
+from engine.library import find_shot, load_library
+from engine.rig import default_rig
+from engine.skeleton import Clip
 
 WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 
@@ -17,14 +24,7 @@ WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
               out: Optional[Path] = None) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
-    import time
-
-    import numpy as np
-
-    from engine import choice
-    from engine.adapt import Adapter, AdaptSettings, check_settings
-    from engine.library import find_shot, load_library
-    from engine.rig import default_rig
+    from engine.adapt import Adapter, AdaptSettings, check_settings  # numba (0.25 s): when the command runs
 
     if out is not None:
         check_out(out)
@@ -86,18 +86,15 @@ def check_out(out: Path) -> None:
 
 
 def _write(out: Path, rig, shot, a) -> None:
-    from engine import bvh
-    from engine.skeleton import Clip
     suffix = out.suffix.lower()
     clip = Clip(a.root_positions, a.local_rotations, shot.clip.fps)
     if suffix == ".bvh":
         bvh.write(out, shot.skeleton, clip)
         return
     if suffix in (".glb", ".gltf"):
-        from engine.gltf_export import write_gltf
         write_gltf(out, shot.skeleton, clip, name=f"{shot.name}_adapted")
         return
-    from engine.ccd import limit_euler
+    from engine.ccd import limit_euler  # numba (0.25 s): when the command runs
     e = limit_euler(a.local_rotations, rig.limits)
     names = shot.skeleton.names
     head = ["frame", "blend", "root_x", "root_y", "root_z"] + [

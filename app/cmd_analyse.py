@@ -6,11 +6,16 @@ import json
 from pathlib import Path
 
 import numpy as np
+from PIL import Image, ImageDraw
 import typer
 
 from app.cmd_render import check_png_out, save_png_atomic
 from app.errors import MAX_POSITION_CM, UserError, cli_errors, numbers, shorten
 from app.errors import falloff as falloff_cm
+from engine import quat
+from engine.library import find_shot, load_library
+from engine.rig import default_rig
+from engine.skeleton import Clip, bind_positions, clip_fk, skinning_matrices
 
 DISSERTATION = {"dof0": 0.307, "dof2": 0.398, "source": "Table 2.1"}
 PARTS = ("body", "upper")
@@ -39,15 +44,13 @@ def register(cli: typer.Typer) -> None:
         joint's quaternion (3 + 26 x 4 = 107), sign-continuous and standardised.
         "upper" uses the spine, neck, head and arm quaternions only.
         """
-        from engine.library import find_shot, load_library
-        from engine.rig import default_rig
 
         if strip is not None:
             check_png_out(strip, "--components-strip")
             if part not in PARTS:
                 raise UserError(f"--part must be one of {', '.join(PARTS)}, got {shorten(part)!r}")
         if style:
-            from engine.adapt import AdaptSettings, check_settings
+            from engine.adapt import AdaptSettings, check_settings  # numba (0.25 s): when the command runs
             offsets_cm, falloff = _parse_offsets(offsets), falloff_cm("--falloff", falloff)
             check_settings(AdaptSettings(falloff=falloff, solver=solver))
         rig = default_rig()
@@ -75,7 +78,7 @@ def register(cli: typer.Typer) -> None:
 
 # ------------------------------------------------------------------- variance
 def variance_rows(rig, shots, components: int = 5) -> list[dict]:
-    from engine import pca as pcam
+    from engine import pca as pcam  # numba (0.25 s): when the command runs
     rows = []
     for s in shots:
         row = {"name": s.name, "frames": s.num_frames}
@@ -107,7 +110,7 @@ def print_variance_table(rows: list[dict], components: int) -> None:
 
 
 def multi_report(rig, shots) -> dict:
-    from engine import pca as pcam
+    from engine import pca as pcam  # numba (0.25 s): when the command runs
     out = {"shots": [s.name for s in shots], "frames": int(sum(s.num_frames for s in shots))}
     for part in PARTS:
         p = pcam.fit_clips(rig, [s.clip for s in shots], part)
@@ -143,11 +146,8 @@ def style_report(rig, shots, offsets: list[float], falloff: float, solver: str, 
     """Style RMSE (2.5.5) of every shot adapted to hit points around its own, with
     the left wrist at 0 and at 2 DOF; upper-body and whole-body PC spaces, the
     first ``pcs`` components of the source."""
-    try:
-        from engine.adapt import AdaptSettings, Adapter
-    except ImportError:
-        raise UserError("--style needs engine.adapt (the IK adaptation), which is not available") from None
     from engine import pca as pcam
+    from engine.adapt import AdaptSettings, Adapter  # numba (0.25 s): when the command runs
 
     results, all_rmse = [], {(p, d): [] for p in PARTS for d in (0, 2)}
     for s in shots:
@@ -200,7 +200,7 @@ def style_report(rig, shots, offsets: list[float], falloff: float, solver: str, 
 def components_poses(rig, clip, part: str = "upper", sds=(-3, -2, -1, 0, 1, 2, 3), pcs: int = 3):
     """Poses along each of the first ``pcs`` PCs (others 0) at ``sds`` standard
     deviations of the observed scores: ``root (pcs, n, 3)``, ``local (pcs, n, J, 4)``."""
-    from engine import pca as pcam
+    from engine import pca as pcam  # numba (0.25 s): when the command runs
     p = pcam.fit_clip(rig, clip, part)
     pcs = min(pcs, p.num_components)
     scores = np.zeros((pcs, len(sds), pcs))
@@ -243,7 +243,6 @@ def _view_axes():
 
 def _bat_segment(rig, g_rot, g_pos):
     """Bat handle top and toe ``(..., 3)`` from the top hand's global pose."""
-    from engine import quat
     lh = int(rig.skeleton.parents[rig.bat_joint])
     bat = rig.bat
     axis = np.asarray(bat["axis"], float)
@@ -255,8 +254,6 @@ def _bat_segment(rig, g_rot, g_pos):
 
 
 def _render_strip_sticks(rig, root, rot, cell: int):
-    from PIL import Image, ImageDraw
-    from engine.skeleton import Clip, clip_fk
     rows, cols = root.shape[:2]
     J = rot.shape[-2]
     clip = Clip(root.reshape(-1, 3), rot.reshape(-1, J, 4))
@@ -293,9 +290,7 @@ def _render_strip_sticks(rig, root, rot, cell: int):
 
 def _render_strip_gl(rig, root, rot, cell: int):
     """Skinned batsman per cell through the render API (app.render)."""
-    from PIL import Image
-    from app.render import scene as rs
-    from engine.skeleton import Clip, bind_positions, clip_fk, skinning_matrices
+    from app.render import scene as rs  # moderngl: when it renders
     rows, cols = root.shape[:2]
     J = rot.shape[-2]
     g_rot, g_pos = clip_fk(rig.skeleton, Clip(root.reshape(-1, 3), rot.reshape(-1, J, 4)))
@@ -320,7 +315,6 @@ def _render_strip_gl(rig, root, rot, cell: int):
 
 def _label_strip(img, name, part, p, sds, cell):
     """Title and column labels in the top band; a boxed label on each row."""
-    from PIL import ImageDraw
     draw = ImageDraw.Draw(img)
     cum = p.cumulative
     draw.text((6, 6), f"{name}: {part} PCA, PC1..3 capture {100 * cum[min(2, len(cum) - 1)]:.1f}% of the variance; "

@@ -4,15 +4,19 @@ from __future__ import annotations
 import json
 import time
 
+import warnings
+import numpy as np
 import typer
 
 from app.errors import cli_errors, number
+from engine.library import load_library
+from engine.rig import default_rig
+from engine.skeleton import bind_positions, skinning_matrices
 
 MIN_REPS, MAX_REPS = 10, 100_000   # below 10 the p95 means nothing; above, a run takes hours
 
 
 def _stats(samples, scale: float) -> dict:
-    import numpy as np
     a = np.asarray(samples) * scale
     return {"median": round(float(np.median(a)), 3), "p95": round(float(np.percentile(a, 95)), 3),
             "n": len(a)}
@@ -33,8 +37,7 @@ def ikpy_chain(rig, chain, parent_rot, start_euler_rad, lo, hi):
     """An ikpy chain equal to one of our chains for one frame: the base is the
     chain's parent joint frame, each Euler column is a revolute link (free) or
     a fixed turn by its source angle (locked), the effector a fixed link."""
-    import numpy as np
-    from ikpy.chain import Chain
+    from ikpy.chain import Chain      # the bench extra: only for the comparison
     from ikpy.link import OriginLink, URDFLink
     links = [OriginLink()]
     mask = [False]
@@ -66,15 +69,10 @@ def ikpy_chain(rig, chain, parent_rot, start_euler_rad, lo, hi):
 
 
 def run_bench(reps: int = 200) -> dict:
-    import warnings
 
-    import numpy as np
 
     from engine import ccd, quat
-    from engine.adapt import Adapter, AdaptSettings
-    from engine.library import load_library
-    from engine.rig import default_rig
-    from engine.skeleton import bind_positions, skinning_matrices
+    from engine.adapt import Adapter, AdaptSettings  # numba (0.25 s): when the command runs
 
     rig = default_rig()
     shot = load_library(rig=rig)[0]

@@ -11,11 +11,17 @@ from pathlib import Path
 from typing import Optional
 
 import numpy as np
+from PIL import Image, ImageDraw
 import typer
 
 from app.cmd_adapt import WRIST_DOFS
 from app.errors import UserError, cli_errors, number, position
 from app.errors import falloff as falloff_cm
+from engine import quat
+from engine.atomic import atomic_output
+from engine.library import find_shot, load_library
+from engine.rig import default_rig
+from engine.skeleton import bind_positions, skinning_matrices
 
 MAX_STRIP_FRAMES = 64
 MAX_SHEET_PIXELS = 64_000_000   # the whole contact sheet (about 190 MB of RGB)
@@ -50,7 +56,6 @@ def parse_size(text: str) -> tuple[int, int]:
 
 def bat_segment(rig, global_rotations: np.ndarray, global_positions: np.ndarray) -> np.ndarray:
     """Handle top and toe of the bat ``(..., 2, 3)`` from the LeftHand transform (``rig.bat``)."""
-    from engine import quat
     b = rig.bat
     hand = rig.skeleton.index("LeftHand")
     grip = np.asarray(b["left_grip"], float)
@@ -62,10 +67,9 @@ def bat_segment(rig, global_rotations: np.ndarray, global_positions: np.ndarray)
 
 def strip_camera(points: np.ndarray, cell: tuple[int, int], fovy: float = 30.0, margin: float = 0.86):
     """Off-side camera (from -X, a little toward the bowler) framing ``points (N,3)``; (view, proj).
-
     Starts close and backs off until every point projects inside ``margin`` of the frame.
     """
-    from app.render import look_at, perspective
+    from app.render import look_at, perspective  # moderngl: when it renders
     centre = 0.5 * (points.min(0) + points.max(0))
     direction = np.array([-1.0, 0.18, 0.22])
     direction /= np.linalg.norm(direction)
@@ -89,10 +93,7 @@ def render_strip(shot, rig, count: int, cell: tuple[int, int], adapted=None):
     """The contact sheet as a PIL image; with ``adapted`` (an engine.adapt.Adaptation)
     the top row shows the adapted shot over a ghost of the source, and the
     bottom row both skeletons (source yellow, adapted blue)."""
-    from PIL import Image, ImageDraw
-    from app.render import SceneRenderer, SceneView, offscreen_context, render_image
-    from engine import quat
-    from engine.skeleton import bind_positions, skinning_matrices
+    from app.render import SceneRenderer, SceneView, offscreen_context, render_image  # moderngl: when it renders
 
     frames = strip_frames(shot.num_frames, shot.hit_frame, count)
     g_rot, g_pos = shot.fk
@@ -164,7 +165,6 @@ def check_png_out(out: Path, option: str = "--out") -> None:
 
 def save_png_atomic(img, out: Path) -> None:
     """A PIL image as PNG, atomically (see engine.atomic)."""
-    from engine.atomic import atomic_output
     check_png_out(out)
     with atomic_output(out) as tmp:
         img.save(tmp, format="PNG")
@@ -185,8 +185,6 @@ def register(cli: typer.Typer) -> None:
         wrist_dof: int = typer.Option(0, "--wrist-dof", help="Left wrist DOF, 0 or 2 (with --hit)."),
     ):
         """Contact sheet of a shot: skinned mesh (top) and source skeleton (bottom), frames side by side."""
-        from engine.library import find_shot, load_library
-        from engine.rig import default_rig
 
         number("--frames", frames, 1, MAX_STRIP_FRAMES, integer=True)
         check_png_out(out)
@@ -202,7 +200,7 @@ def register(cli: typer.Typer) -> None:
         s = find_shot(load_library(rig=rig), shot)
         adapted = None
         if hit is not None:
-            from engine.adapt import Adapter, AdaptSettings
+            from engine.adapt import Adapter, AdaptSettings  # numba (0.25 s): when the command runs
             adapted = Adapter(rig, s).adapt(np.array(hit, float), AdaptSettings(**settings))
         img = render_strip(s, rig, frames, cell, adapted)
         save_png_atomic(img, out)

@@ -6,6 +6,7 @@ import json
 import typer
 
 from app.errors import cli_errors
+from engine.library import load_library
 
 
 def register(cli: typer.Typer) -> None:
@@ -13,7 +14,6 @@ def register(cli: typer.Typer) -> None:
     @cli_errors
     def shots(as_json: bool = typer.Option(False, "--json", help="Print a JSON list of objects.")):
         """List the shot library: name, file, frames, hit frame, FK hit point (cm)."""
-        from engine.library import load_library
         lib = load_library()
         rows = [{"name": s.name, "file": s.file, "frames": s.num_frames, "hit_frame": s.hit_frame,
                  "hit_point": [round(float(v), 3) for v in s.hit_point]} for s in lib]

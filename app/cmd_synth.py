@@ -9,6 +9,8 @@ import typer
 
 from app.errors import MAX_FPS, MIN_FPS, UserError, cli_errors, number
 from app.jsonfile import read_json
+from engine.library import find_shot, load_library
+from engine.rig import default_rig
 
 MAX_PATH_FILE_BYTES = 16_000_000   # a path of MAX_PATH_POINTS timed points is ~5 MB of JSON
 
@@ -36,10 +38,8 @@ def register(cli: typer.Typer) -> None:
         at "abort_frame") and heads straight for the rest pose. Prints a JSON
         summary (frames, clean-up errors).
         """
-        from engine import bvh, cleanup, synth
+        from engine import bvh, cleanup, synth  # numba (0.25 s): when the command runs
         from engine import pca as pcam
-        from engine.library import find_shot, load_library
-        from engine.rig import default_rig
 
         if out.suffix.lower() != ".bvh":
             raise UserError(f"--out {out}: only .bvh output is supported")

@@ -340,11 +340,11 @@ def test_headless_scripted_capture_into_a_missing_folder_exits_2(place):
 
 
 def test_headless_view_whose_renderer_failed_exits_2(place, capsys, monkeypatch):
-    import app.render.scene
+    import app.viewer
 
     def broken(*a, **k):
         raise ValueError("bad mesh asset")
-    monkeypatch.setattr(app.render.scene, "SceneRenderer", broken)
+    monkeypatch.setattr(app.viewer, "SceneRenderer", broken)
     line = assert_refused(place, capsys, ["view", "--headless", "--frames", "2", "--stats", "{d}/out/s.json"])
     assert "renderer" in line and "bad mesh asset" in line
 
