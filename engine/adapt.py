@@ -24,7 +24,7 @@ import numpy as np
 from . import quat
 from .ccd import ITERATIONS, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, limit_euler
 from .dls import DAMPING, default_stiffness, dls_frame
-from .kinematics_nb import (IDENTITY, KIND_MULTI, KIND_NONE, ORIGIN, chain_fk, fk_into, hinge_axis, load_pose,
+from .kinematics_nb import (IDENTITY, KIND_MULTI, KIND_NONE, ORIGIN, Chain, chain_fk, fk_into, hinge_axis, load_pose,
                             new_pose, new_work, store_local)
 from .nb import kernel
 from .quat_nb import (clamp_angle, dot, from_euler_zyx, pick_branch, q_angle, q_at, q_put, qconj, qmul, qrot,
@@ -274,7 +274,16 @@ def _adapt_one(S, L, R, cfg, f, i, handle, out, pose_l, pose_r, w):
 
 
 @kernel
-def _adapt_frames(frames, desired, blends, S, L, R, cfg, out):
+def _adapt_frames(frames, desired, blends, s, left, right, c, o):
+    """:func:`_adapt_records` for plain tuples of the same fields: numba types a
+    namedtuple argument in Python, some microseconds per call, a plain tuple in C
+    (scrubbing calls this every frame)."""
+    _adapt_records(frames, desired, blends, ShotData(*s), Chain(*left), Chain(*right), RunSettings(*c),
+                   Outputs(*o))
+
+
+@kernel
+def _adapt_records(frames, desired, blends, S, L, R, cfg, out):
     """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1."""
     nl = L.order.shape[0]
     nr = R.order.shape[0]
@@ -384,6 +393,7 @@ class Adapter:
                                    self.bat, self.lhand, self.rel_pos, self.rel_rot, self.right_parent_in_left,
                                    np.ascontiguousarray(left.joints, np.int64),
                                    np.ascontiguousarray(right.joints, np.int64))
+        self._shot_tuple = tuple(self._shot_data)
 
     @property
     def max_falloff(self) -> float:
@@ -439,7 +449,8 @@ class Adapter:
         cfg = RunSettings(SOLVERS.index(settings.solver), bool(settings.fix_right_hand), float(settings.tolerance),
                           int(settings.iterations), DAMPING, ORIENT_TOL)
         left, right = self._chain_args(settings)
-        _adapt_frames(frames, p, self._blend_for(float(settings.falloff)), self._shot_data, left, right, cfg, out)
+        _adapt_frames(frames, p, self._blend_for(float(settings.falloff)), self._shot_tuple, tuple(left),
+                      tuple(right), tuple(cfg), tuple(out))
         return tuple(out), p
 
     def adapt(self, desired_hit_point, settings: AdaptSettings | None = None) -> Adaptation:

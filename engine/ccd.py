@@ -130,8 +130,11 @@ def ccd_frame(prot, ppos, chain, pose, handle, tol, max_iter, w):
 
 
 @kernel
-def ccd_batch(prot, ppos, chain, local, euler, src_euler, handles, tol, max_iter, out_err, out_iter):
-    """Every frame f of local (F,n,4) / euler (F,n,3) solved in place."""
+def ccd_batch(prot, ppos, chain_fields, local, euler, src_euler, handles, tol, max_iter, out_err, out_iter):
+    """Every frame f of local (F,n,4) / euler (F,n,3) solved in place. ``chain_fields``:
+    a :class:`Chain`'s fields as a plain tuple (numba types those in C, a
+    namedtuple argument in Python at some microseconds a call)."""
+    chain = Chain(*chain_fields)
     w = new_work(chain.order.shape[0])
     for f in range(local.shape[0]):
         pose = Pose(local[f], euler[f], src_euler[f], chain.lo, chain.hi)
@@ -278,5 +281,5 @@ def solve(chain: ChainArrays, parent_rotations, parent_positions, local_rotation
     its = np.empty(F, np.int64)
     packed = chain.packed(np.zeros(len(chain.joints)) if pure else None)
     ccd_batch(np.ascontiguousarray(parent_rotations, float), np.ascontiguousarray(parent_positions, float),
-              packed, local, euler, src, handles, float(tolerance), int(iterations), err, its)
+              tuple(packed), local, euler, src, handles, float(tolerance), int(iterations), err, its)
     return local, err, its

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .ccd import ITERATIONS, STALL, STALL_REL, TOLERANCE, ChainArrays, NO_GOAL, _check_handles, limit_euler
-from .kinematics_nb import Pose, new_work
+from .kinematics_nb import Chain, Pose, new_work
 from .nb import kernel
 from .quat_nb import q_at
 from .solve_nb import POSITION, Damping, lm_solve
@@ -41,7 +41,9 @@ def dls_frame(prot, ppos, chain, pose, handle, tol, max_iter, damping, w):
 
 
 @kernel
-def dls_batch(prot, ppos, chain, local, euler, handles, tol, max_iter, damping, out_err, out_iter):
+def dls_batch(prot, ppos, chain_fields, local, euler, handles, tol, max_iter, damping, out_err, out_iter):
+    """Every frame solved in place; ``chain_fields`` as :func:`engine.ccd.ccd_batch`'s."""
+    chain = Chain(*chain_fields)
     w = new_work(chain.order.shape[0])
     for f in range(local.shape[0]):
         pose = Pose(local[f], euler[f], euler[f], chain.lo, chain.hi)
@@ -65,6 +67,6 @@ def solve(chain: ChainArrays, parent_rotations, parent_positions, local_rotation
     err = np.empty(F)
     its = np.empty(F, np.int64)
     dls_batch(np.ascontiguousarray(parent_rotations, float), np.ascontiguousarray(parent_positions, float),
-              chain.packed(1.0 / stiff), local, euler, handles, float(tolerance), int(iterations),
+              tuple(chain.packed(1.0 / stiff)), local, euler, handles, float(tolerance), int(iterations),
               float(damping), err, its)
     return local, err, its
