@@ -39,6 +39,9 @@ def view(
                        "(settings, camera, every PC-pad take) and autosave it, to $HITPOINT_DATA_DIR or the "
                        "user data folder. Default: on with a window; off headless or with --script (runs stay "
                        "reproducible) unless HITPOINT_DATA_DIR is set.")] = None,
+    software_gl: Annotated[str, typer.Option("--software-gl", help="The software-GL profile (cached layers, "
+                           "partial redraws and presents): auto (on for llvmpipe/softpipe/swrast), on or off.")
+                           ] = "auto",
 ):
     """Open the viewer: drag the red-and-white target, the shot adapts every frame."""
     started = time.perf_counter()
@@ -51,6 +54,10 @@ def view(
     if library is not None and not library.is_file():
         raise UserError(f"{library}: shot library not found")
     _check_outputs(screenshot, stats)
+    from app import softgl
+    if software_gl not in softgl.MODES:
+        raise UserError(f"--software-gl {software_gl!r}: one of {', '.join(softgl.MODES)}")
+    softgl.set_mode(software_gl)
     from app.viewer import App
     from app.window import DisplayError
     try:

@@ -13,7 +13,8 @@ import moderngl
 import numpy as np
 from imgui_bundle import imgui
 
-from app.ui_damage import DamageTracker, UiGeometry
+from app import softgl
+from app.softgl.ui_damage import Batch, DamageTracker, UiGeometry
 
 _VERTEX = """
 #version 330
@@ -34,7 +35,8 @@ void main() { color = col * texture(tex, uv); }
 class ImguiRenderer:
     """Uploads ImGui textures (font atlas, on demand) and draws ``ImDrawData``."""
 
-    def __init__(self, ctx: moderngl.Context):
+    def __init__(self, ctx: moderngl.Context, software_gl: bool | None = None):
+        """``software_gl``: redraw only what changed (None: ``app.softgl.enabled(ctx)``)."""
         self.ctx = ctx
         self.prog = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
         self.prog["tex"] = 0
@@ -43,8 +45,9 @@ class ImguiRenderer:
         self.vao = self._make_vao()
         self.textures: dict[int, moderngl.Texture] = {}
         self._atlas_ids: set[int] = set()      # textures ImGui made (app textures keep their filter)
-        self.damage = DamageTracker()
-        self.drawn_rects: list[tuple] = []     # (x, y, w, h) GL pixels the last render drew into
+        software_gl = softgl.enabled(ctx) if software_gl is None else software_gl
+        self.damage = DamageTracker() if software_gl else None
+        self.drawn_rects: list[tuple] = []     # software GL: (x, y, w, h) GL pixels the last render drew into
         # At 1:1 scale glyphs sit on whole pixels, so nearest sampling gives the
         # same text at a fraction of llvmpipe's cost for bilinear; lines are
         # antialiased with geometry, which does not need the filtered texture.
@@ -105,16 +108,17 @@ class ImguiRenderer:
     # -- drawing ----------------------------------------------------------
     def invalidate(self) -> None:
         """Redraw the whole UI next frame (the target's pixels were overwritten)."""
-        self.damage.invalidate()
+        if self.damage is not None:
+            self.damage.invalidate()
 
     def render(self, draw_data, fbo: moderngl.Framebuffer, keep: tuple = ()) -> None:
         """Draw ``draw_data`` into ``fbo``. ``keep`` holds rectangles (x, y, w, h,
         display pixels; not overlapping) of ``fbo`` that nothing but the UI draws
-        into: there only the bands that changed since the last call are redrawn
-        (``app.ui_damage``)."""
+        into: on software GL only the bands that changed since the last call are redrawn
+        there (``app.softgl.ui_damage``)."""
         self.drawn_rects = []
         if self._update_textures():
-            self.damage.invalidate()
+            self.invalidate()
         width, height = draw_data.display_size
         if width <= 0 or height <= 0:
             return
@@ -125,7 +129,10 @@ class ImguiRenderer:
         ox, oy = draw_data.display_pos
         display = (ox, oy, ox + width, oy + height)
         boxes = [(x, y, x + w, y + h) for x, y, w, h in keep]
-        indices, plan = self.damage.plan(geo, display, boxes, (fbo.glo, fbo.size, tuple(draw_data.framebuffer_scale)))
+        if self.damage is None:
+            indices, plan = geo.indices.reshape(-1), _every_command(geo)
+        else:
+            indices, plan = self.damage.plan(geo, display, boxes, (fbo.glo, fbo.size, tuple(draw_data.framebuffer_scale)))
         if not plan:
             return
         self._write(self.vbo, geo.words.tobytes())
@@ -151,7 +158,7 @@ class ImguiRenderer:
                 bx0, by0, bx1, by1 = batch.bounds or batch.rect       # what its triangles touch
                 bx0, bx1 = max(int((bx0 - ox) * sx) - 1, x0), min(int(np.ceil((bx1 - ox) * sx)) + 1, x1)
                 by0, by1 = max(int((by0 - oy) * sy) - 1, y0), min(int(np.ceil((by1 - oy) * sy)) + 1, y1)
-                if bx1 > bx0 and by1 > by0:
+                if self.damage is not None and bx1 > bx0 and by1 > by0:
                     self.drawn_rects.append((bx0, fbo.height - by1, bx1 - bx0, by1 - by0))
                 tex = self.textures.get(batch.texture)
                 if tex is not None:
@@ -168,7 +175,7 @@ class ImguiRenderer:
             self._filter = (mode, mode)
             for tex in self._atlas_ids & self.textures.keys():
                 self.textures[tex].filter = self._filter
-            self.damage.invalidate()
+            self.invalidate()
 
     @staticmethod
     def _geometry(draw_data) -> UiGeometry | None:
@@ -212,3 +219,11 @@ class ImguiRenderer:
         self.textures.clear()
         for obj in (self.vao, self.vbo, self.ibo, self.prog):
             obj.release()
+
+
+def _every_command(geo: UiGeometry) -> list[Batch]:
+    """One batch per draw command, scissored to its clip rectangle: the whole UI."""
+    counts = np.bincount(geo.tri_cmd, minlength=len(geo.clips)) * 3
+    firsts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    return [Batch(int(first), int(count), tuple(float(v) for v in clip), int(texture))
+            for first, count, clip, texture in zip(firsts, counts, geo.clips, geo.textures) if count]

@@ -2,7 +2,6 @@
 ``app.render.SceneView`` (plain arrays) for ``SceneRenderer.render``."""
 from __future__ import annotations
 
-import hashlib
 from collections import OrderedDict
 
 import numpy as np
@@ -21,9 +20,6 @@ SOURCE_BAT_PATH_RGBA = (0.6, 0.65, 0.75, 0.7)
 FLIGHT_RGBA = (0.3, 1.0, 0.45, 0.9)
 SKELETON_RGBA = (1.0, 0.9, 0.2, 1.0)
 GHOST_SKELETON_RGBA = (0.7, 0.8, 1.0, 0.8)
-# the static scene (pitch, stumps, stadium) is multisampled once the camera has held still this
-# long: drawing it so costs ~60 ms here, once per view - too much for every frame of an orbit
-STATIC_AA_SETTLE_S = 0.2
 
 
 def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCamera,
@@ -38,7 +34,6 @@ def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCam
                      skin_matrices=_skin(state.pose, state, skinning_matrices))
     view.show_pitch = o.pitch
     view.antialias = bool(settings.antialias)
-    view.static_antialias = state.camera_still_s >= STATIC_AA_SETTLE_S
     view.target_position = np.asarray(settings.target, np.float32)
     view.target_normal = TARGET_NORMAL
     view.target_highlight = bool(state.hover_target or state.dragging_target)
@@ -71,30 +66,6 @@ def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCam
     if o.ball and state.ball_position is not None:
         view.ball_position = np.asarray(state.ball_position, np.float32)
     return view
-
-
-def scene_key(view) -> str:
-    """A digest of everything a SceneView draws: equal keys, identical images
-    (lets the loop skip re-rendering a scene that did not change)."""
-    h = hashlib.blake2b(digest_size=16)
-
-    def feed(x):
-        if x is None:
-            h.update(b"-")
-        elif isinstance(x, np.ndarray):
-            h.update(np.ascontiguousarray(x).tobytes())
-            h.update(str(x.shape).encode())
-        elif isinstance(x, (list, tuple)):
-            h.update(b"[")
-            for item in x:
-                feed(item)
-            h.update(b"]")
-        else:
-            h.update(repr(x).encode())
-    for name, value in sorted(vars(view).items()):
-        h.update(name.encode())
-        feed(value)
-    return h.hexdigest()
 
 
 _SKIN_CACHE: OrderedDict = OrderedDict()     # pose bytes -> skinning matrices; the last few

@@ -29,7 +29,7 @@ from app.render.scene import SceneRenderer
 from app.settings import ViewerSettings
 from app.state import AppState, ExportNote
 from app.stats import FrameStats
-from app.submit import build_scene_view, scene_key
+from app.submit import build_scene_view
 from app.timeline import TIMELINE_HEIGHT, draw_timeline
 from app.update import ball_at, default_target, load_library, pose_at, update
 from app.warmup import EngineWarmup
@@ -185,8 +185,7 @@ class App:
         scene_size = comp.resize(self.window.framebuffer_size, rects["viewport"], size,
                                  self.settings.render_scale)
         view = self._scene_view(scene_size, comp.scene_origin)
-        comp.draw_scene(scene_key(view) if view is not None else None,
-                        lambda fbo: self.render_scene(fbo, view), self._scene_changed)
+        comp.draw_scene(lambda fbo: self.render_scene(fbo, view), self._scene_changed)
         flush()               # the scene rasterises while the UI's draws are planned
         t_render = time.perf_counter()
 

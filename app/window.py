@@ -19,6 +19,9 @@ import time
 
 import moderngl
 
+from app import softgl
+from app.softgl import present
+
 
 class DisplayError(RuntimeError):
     """No way to open a GL window (no display and no Xvfb)."""
@@ -99,50 +102,12 @@ class Window:
         glfw.swap_interval(1 if visible else 0)
         self.ctx = moderngl.create_context()
         self.visible = visible
-        self.preserves_back_buffer = visible and self._keeps_back_buffer()
-        self._copy_sub_buffer = self._sub_buffer_copier() if self.preserves_back_buffer else None
+        # software GL only: does the back buffer keep its pixels (partial presents, app.softgl.present)?
+        self.preserves_back_buffer = visible and softgl.enabled(self.ctx) and present.keeps_back_buffer(self)
+        self._copy_sub_buffer = present.sub_buffer_copier(self) if self.preserves_back_buffer else None
         self._cursors = {"arrow": None, "hand": glfw.create_standard_cursor(glfw.HAND_CURSOR),
                          "move": glfw.create_standard_cursor(glfw.RESIZE_ALL_CURSOR)}
         self._cursor = "arrow"
-
-    def _keeps_back_buffer(self) -> bool:
-        """Does the back buffer keep its pixels across a swap (software GL copies it to the
-        window; GPU drivers usually flip buffers)? Then a frame needs to draw only what
-        changed. Two swaps of two shades of the background, and a look at the back buffer."""
-        shades = ((0.11, 0.12, 0.14), (0.13, 0.12, 0.14))
-        try:
-            for r, g, b in shades:
-                self.ctx.screen.use()
-                self.ctx.screen.clear(r, g, b, 1.0)
-                self.swap()
-            pixel = self.ctx.screen.read(viewport=(0, 0, 1, 1), components=3)
-        except Exception:     # any doubt: present the whole frame every time
-            return False
-        return abs(pixel[0] - round(shades[1][0] * 255)) <= 1 and abs(pixel[0] - round(shades[0][0] * 255)) > 1
-
-    def _sub_buffer_copier(self):
-        """glXCopySubBufferMESA bound to this window, or None (not GLX, not Mesa): shows
-        rectangles of the back buffer without sending the whole window to the X server
-        (~2 ms of the server's CPU a frame at 1280x720 under Xvfb)."""
-        try:
-            import ctypes
-            gl = ctypes.CDLL("libGL.so.1")
-            gl.glXQueryExtensionsString.restype = ctypes.c_char_p
-            gl.glXQueryExtensionsString.argtypes = [ctypes.c_void_p, ctypes.c_int]
-            display = self.glfw.get_x11_display()
-            display = getattr(display, "value", display)
-            if b"GLX_MESA_copy_sub_buffer" not in (gl.glXQueryExtensionsString(display, 0) or b"").split():
-                return None
-            gl.glXGetProcAddressARB.restype = ctypes.c_void_p
-            address = gl.glXGetProcAddressARB(b"glXCopySubBufferMESA")
-            drawable = int(self.glfw.get_glx_window(self.handle))
-        except Exception:
-            return None
-        if not address or not drawable:
-            return None
-        copy = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int,
-                                ctypes.c_int, ctypes.c_int)(address)
-        return lambda x, y, w, h: copy(display, drawable, int(x), int(y), int(w), int(h))
 
     def show_regions(self, regions) -> bool:
         """Show just these rectangles (x, y, w, h; GL pixels) of the back buffer, if this
@@ -212,6 +177,9 @@ class HeadlessWindow:
 
     def swap(self) -> None:
         pass
+
+    def show_regions(self, regions) -> bool:
+        return False
 
     def close(self) -> None:
         if self.ctx is not None:

@@ -1,5 +1,5 @@
 #version 330
-// A screen rectangle (NDC) for the FXAA post-pass: only what moves is filtered.
+// A screen rectangle (NDC) for the FXAA post-pass: the whole view.
 uniform vec4 u_rect;   // x0, y0, x1, y1 in NDC
 out vec2 v_uv;
 void main() {

@@ -364,17 +364,16 @@ def test_a_bad_pc_pad_action_fails_when_the_script_loads(event):
         ScriptPlayer([{"type": "pcpad", "frame": 0, **event}])
 
 
-def test_idle_frames_restore_the_scene_exactly_where_it_was_drawn(app):
+def test_idle_frames_draw_the_scene_exactly_where_it_was_drawn(app):
     """The scene is drawn above the timeline (at an offset in the frame); idle frames
-    restore it from the cache to the same place, ghost included, pixel for pixel."""
+    draw it again in the same place, ghost included, pixel for pixel."""
     app.settings.overlays.ghost = "mesh"
     app.scrub(app.state.shot.hit_frame)
-    run(app, 2)                       # a change, then drawn once more and cached
+    run(app, 2)
     app.finish_frame()
     drawn = app.screenshot().copy()
-    run(app, 3)                       # unchanged: restored from the cache
+    run(app, 3)                       # unchanged
     app.finish_frame()
-    assert app.compositor.scene_key is not None           # the restore path ran
     assert app.compositor.scene_origin[1] > 0              # and the view does sit above the timeline
     vx, vy, vw, vh = app.state.viewport
     scene = app.screenshot()[vy:vy + vh, vx:vx + vw].astype(int)
@@ -431,24 +430,3 @@ def test_the_first_solve_is_solved_again_for_the_readout():
     assert state.solve_count == 2 and state.adaptation is not None
     update(state, settings, 1 / 60)
     assert state.solve_count == 2 and state.errors == 0
-
-
-def test_static_scene_is_multisampled_once_the_camera_holds_still(app):
-    """While the camera orbits, the static scene is redrawn single-sampled for every view
-    (multisampled it would cost ~60 ms a frame here); once the camera has held still for
-    ``STATIC_AA_SETTLE_S`` it is drawn once more, multisampled, and kept."""
-    from app.script import ScriptPlayer
-    from app.submit import STATIC_AA_SETTLE_S
-    vx, vy, vw, vh = app.state.viewport
-    cx, cy = vx + vw // 2, vy + vh // 2
-    player = ScriptPlayer([{"type": "drag", "button": "right", "frame": 0, "from": [cx, cy],
-                            "to": [cx + 80, cy + 10], "frames": 6}])
-    samples = []
-    for i in range(9 + int(np.ceil(STATIC_AA_SETTLE_S * 60)) + 2):
-        player.apply(app, i)
-        app.frame(dt=1 / 60)
-        samples.append(app.scene_renderer._static.key[-1])
-    app.camera.reset()
-    run(app, 1)
-    assert set(samples[3:8]) == {0}                   # orbiting: single-sampled
-    assert samples[-1] == 4                           # held still: multisampled

@@ -79,17 +79,20 @@ def test_view_is_callable_without_arguments():
         assert not type(p.default).__name__.endswith("Info"), name
 
 
-def test_visible_window_presents_the_composed_frame(tmp_path):
+@pytest.mark.parametrize("software_gl", ["on", "off"])
+def test_visible_window_presents_the_composed_frame(tmp_path, software_gl):
     """The real window (glfw on an Xvfb of its own): a scripted drag runs (at the hit
     frame, so the batsman moves too), then idle frames, and at every other frame the
-    window's back buffer and what the X server shows are the composed frame. Where the
-    window keeps its back buffer (software GL does) only what changed is presented (and
-    sent to the X server): the check shows no stale pixel is left behind."""
+    window's back buffer and what the X server shows are the composed frame. The plain
+    path presents the whole frame; on software GL, where the window keeps its back buffer,
+    only what changed is presented (and sent to the X server): the check shows no stale
+    pixel is left behind."""
     import shutil
     if shutil.which("Xvfb") is None:
         pytest.skip("no Xvfb")
     code = r'''
 import ctypes, json, sys, numpy as np
+from app import softgl
 from app.viewer import App
 from app.script import ScriptPlayer
 
@@ -117,17 +120,15 @@ def shown(app):
     return raw.reshape(h, img.bytes_per_line)[:, :w * 4].reshape(h, w, 4)[..., [2, 1, 0]]
 
 
+softgl.set_mode(sys.argv[1])
 app = App((640, 400), headless=False)
 player = ScriptPlayer([{"type": "key", "key": "h", "frame": 1},
                        {"type": "drag_target_path", "frame": 3, "circle": {"center": "target", "radius": 40,
                                                                              "turns": 1}, "frames": 24}])
 diff, partial = 0, 0
 comp = app.compositor
-for i in range(72):             # the second half presents the other way (draw or blit)
-    if i == 36:
-        comp._present_way = (comp._present_by_blit if comp._present_way == comp._present_by_draw
-                             else comp._present_by_draw)
-    player.apply(app, i % 36)
+for i in range(36):
+    player.apply(app, i)
     app.frame(dt=1 / 60)
     if i % 2:
         app.finish_frame()
@@ -150,13 +151,16 @@ app.close()
         import time
         time.sleep(1.0)
         env = dict(os.environ, DISPLAY=display)
-        r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+        r = subprocess.run([sys.executable, "-c", code, software_gl], cwd=ROOT, env=env, capture_output=True, text=True,
                            timeout=180)
         assert r.returncode == 0, r.stderr[-2000:]
         data = json.loads(r.stdout.strip().splitlines()[-1])
         assert data["diff"] == 0 and data["errors"] == 0
         assert data["lit"] > 0.5 and data["solves"] >= 3
-        assert not data["keeps"] or data["partial"] >= 16    # Mesa's software GL keeps it
+        if software_gl == "off":
+            assert not data["keeps"] and data["partial"] == 0       # the whole frame, always
+        else:
+            assert data["keeps"] and data["partial"] >= 8           # Mesa's software GL keeps it
     finally:
         server.terminate()
         server.wait(timeout=10)

@@ -1,10 +1,10 @@
-"""UI damage tracking (app.ui_damage): redrawing only the changed bands of the
+"""UI damage tracking (app.softgl.ui_damage): redrawing only the changed bands of the
 panel must give exactly the pixels of a full redraw, frame after frame, while
 the panel's readouts and plot change under a drag."""
 import numpy as np
 import pytest
 
-from app import ui_damage as U
+from app.softgl import ui_damage as U
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 

@@ -13,7 +13,7 @@ Redrawing a band with the scissor set to it gives the same pixels as a full
 redraw: every triangle touching the band is drawn again, in the original order,
 over the panel's opaque window background.
 
-Pure numpy on flat arrays; ``app.imgui_gl`` turns the batches into GL draws.
+Pure numpy on flat arrays; ``app.imgui_gl`` turns the batches into GL draws (software GL only: see ``app.softgl``).
 """
 from __future__ import annotations
 
