@@ -201,31 +201,13 @@ def _row_q4(a, f):
 
 
 @kernel
-def _both_then_bat(S, L, R, cfg, pose_l, pose_r, f, handle, w):
-    """The right arm cannot reach its grip: both arms together; if the bat gave
-    way to the grip, put it back, then the right arm again."""
-    pj = S.parents[S.lj[0]]
-    prl = _row_q(S.src_grot, f, pj)
-    ppl = _row_v(S.src_gpos, f, pj)
-    rel_p = _row_v3(S.rel_pos, f)
-    rel_q = _row_q4(S.rel_rot, f)
-    both_arms_solve(prl, ppl, L, pose_l, S.rp, R, pose_r, handle, rel_p, rel_q, cfg.tol, cfg.ori_tol, 40, w)
-    b2 = chain_fk(prl, ppl, L, pose_l.local, w.g_rot, w.g_pos)
-    if vnorm(vsub(b2, handle)) >= cfg.tol:
-        _solve_chain(cfg, prl, ppl, L, pose_l, handle, w)
-        chain_fk(prl, ppl, L, pose_l.local, w.g_rot, w.g_pos)
-        pr2 = q_at(w.g_rot, S.rp)
-        pp2 = v_at(w.g_pos, S.rp)
-        tp2, tr2 = grip_target(w.g_rot, w.g_pos, L.order.shape[0], rel_p, rel_q)
-        grip_solve(pr2, pp2, R, pose_r, tp2, tr2, cfg.tol, cfg.ori_tol, 30, w)
-
-
-@kernel
 def _right_hand(S, L, R, cfg, pose_l, pose_r, i, f, handle, t_pos, t_rot, out, w):
     """Slot i's right hand back on its grip (t_pos, t_rot) after the left arm
     moved: wrist position first (as the dissertation), then the joints that
     turn the hand without moving the wrist; if limits keep the hand off its
-    grip, both together by damped Newton, then both arms. Returns the grip."""
+    grip, both together by damped Newton, then both arms (and if the bat gave
+    way to the grip, the bat back, then the right arm again). Returns the grip.
+    (One function, not three: each call level costs numba seconds of compile.)"""
     load_pose(pose_r, out.local[i], S.src_euler[f], S.rj)
     _effective_limits(R, pose_r)
     pj = S.parents[S.rj[0]]
@@ -241,7 +223,20 @@ def _right_hand(S, L, R, cfg, pose_l, pose_r, i, f, handle, t_pos, t_rot, out, w
     if vnorm(vsub(eff, t_pos)) >= cfg.tol or oe >= cfg.ori_tol:
         pe, oe = grip_solve(prot, ppos, R, pose_r, t_pos, t_rot, cfg.tol, cfg.ori_tol, 30, w)
         if (pe > GRIP_CM or oe > GRIP_RAD) and S.rp >= 0:
-            _both_then_bat(S, L, R, cfg, pose_l, pose_r, f, handle, w)
+            # out of the right arm's reach: both arms together (the torso leans)
+            pj = S.parents[S.lj[0]]
+            prl = _row_q(S.src_grot, f, pj)
+            ppl = _row_v(S.src_gpos, f, pj)
+            rel_p = _row_v3(S.rel_pos, f)
+            rel_q = _row_q4(S.rel_rot, f)
+            both_arms_solve(prl, ppl, L, pose_l, S.rp, R, pose_r, handle, rel_p, rel_q, cfg.tol, cfg.ori_tol, 40, w)
+            b2 = chain_fk(prl, ppl, L, pose_l.local, w.g_rot, w.g_pos)
+            if vnorm(vsub(b2, handle)) >= cfg.tol:
+                # the bat gave way to the grip: put it back, then the right arm again
+                _solve_chain(cfg, prl, ppl, L, pose_l, handle, w)
+                chain_fk(prl, ppl, L, pose_l.local, w.g_rot, w.g_pos)
+                tp2, tr2 = grip_target(w.g_rot, w.g_pos, L.order.shape[0], rel_p, rel_q)
+                grip_solve(q_at(w.g_rot, S.rp), v_at(w.g_pos, S.rp), R, pose_r, tp2, tr2, cfg.tol, cfg.ori_tol, 30, w)
             store_local(pose_l, S.lj, out.local[i])
     store_local(pose_r, S.rj, out.local[i])
     fk_into(IDENTITY, ORIGIN, S.parents, S.trans[f], out.local[i], S.subtree, out.grot[i], out.gpos[i])
@@ -250,46 +245,22 @@ def _right_hand(S, L, R, cfg, pose_l, pose_r, i, f, handle, t_pos, t_rot, out, w
 
 
 @kernel
-def _adapt_one(S, L, R, cfg, f, i, handle, out, pose_l, pose_r, w):
-    """Frame f into output slot i: the left arm puts the bat on ``handle``, the
-    right hand goes back on its grip."""
-    out.local[i] = S.src_local[f]
-    out.grot[i] = S.src_grot[f]
-    out.gpos[i] = S.src_gpos[f]
-    v_put(out.handle, i, handle)
-    load_pose(pose_l, S.src_local[f], S.src_euler[f], S.lj)
-    _effective_limits(L, pose_l)
-    pj = S.parents[S.lj[0]]
-    _, its = _solve_chain(cfg, _row_q(S.src_grot, f, pj), _row_v(S.src_gpos, f, pj), L, pose_l, handle, w)
-    if its > 0:
-        store_local(pose_l, S.lj, out.local[i])
-        fk_into(IDENTITY, ORIGIN, S.parents, S.trans[f], out.local[i], S.subtree, out.grot[i], out.gpos[i])
-    out.err[i] = vnorm(vsub(_row_v(out.gpos, i, S.bat), handle))
-    t_pos, t_rot = _grip_of(S, out, i, f)
-    if cfg.fix_right and its > 0:
-        t_pos, t_rot = _right_hand(S, L, R, cfg, pose_l, pose_r, i, f, handle, t_pos, t_rot, out, w)
-    rh = S.rj[S.rj.shape[0] - 1]
-    out.gcm[i] = vnorm(vsub(_row_v(out.gpos, i, rh), t_pos))
-    out.gdeg[i] = math.degrees(q_angle(_row_q(out.grot, i, rh), t_rot))
+def _adapt_frames(frames, desired, blends, s, left, right, c, outs):
+    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1.
 
-
-@kernel
-def _adapt_frames(frames, desired, blends, s, left, right, c, o):
-    """:func:`_adapt_records` for plain tuples of the same fields: numba types a
-    namedtuple argument in Python, some microseconds per call, a plain tuple in C
-    (scrubbing calls this every frame)."""
-    _adapt_records(frames, desired, blends, ShotData(*s), Chain(*left), Chain(*right), RunSettings(*c),
-                   Outputs(*o))
-
-
-@kernel
-def _adapt_records(frames, desired, blends, S, L, R, cfg, out):
-    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1."""
+    ``s``, ``left``, ``right``, ``c``, ``outs``: the fields of ShotData, the two
+    Chains, RunSettings and Outputs as plain tuples (numba types a namedtuple
+    argument in Python, some microseconds a call, a plain tuple in C; scrubbing
+    calls this every frame). Kept one level deep on purpose: numba re-optimises
+    a kernel's whole call tree at every level, so each wrapper costs seconds of
+    cold compile."""
+    S, L, R, cfg, out = ShotData(*s), Chain(*left), Chain(*right), RunSettings(*c), Outputs(*outs)
     nl = L.order.shape[0]
     nr = R.order.shape[0]
     w = new_work(max(nl, nr))
     pose_l = new_pose(nl)
     pose_r = new_pose(nr)
+    rh = S.rj[nr - 1]
     b_h = _row_v(S.src_gpos, S.hit, S.bat)
     r_h = _row_q(S.src_grot, S.hit, S.bat)
     offset = qrot(qconj(r_h), vsub((desired[0], desired[1], desired[2]), b_h))
@@ -300,7 +271,24 @@ def _adapt_records(frames, desired, blends, S, L, R, cfg, out):
         o = qrot(_row_q(S.src_grot, f, S.bat), offset)
         out.blend[i] = blend
         handle = (b_f[0] + blend * o[0], b_f[1] + blend * o[1], b_f[2] + blend * o[2])
-        _adapt_one(S, L, R, cfg, f, i, handle, out, pose_l, pose_r, w)
+        # the left arm puts the bat on the handle, the right hand goes back on its grip
+        out.local[i] = S.src_local[f]
+        out.grot[i] = S.src_grot[f]
+        out.gpos[i] = S.src_gpos[f]
+        v_put(out.handle, i, handle)
+        load_pose(pose_l, S.src_local[f], S.src_euler[f], S.lj)
+        _effective_limits(L, pose_l)
+        pj = S.parents[S.lj[0]]
+        _, its = _solve_chain(cfg, _row_q(S.src_grot, f, pj), _row_v(S.src_gpos, f, pj), L, pose_l, handle, w)
+        if its > 0:
+            store_local(pose_l, S.lj, out.local[i])
+            fk_into(IDENTITY, ORIGIN, S.parents, S.trans[f], out.local[i], S.subtree, out.grot[i], out.gpos[i])
+        out.err[i] = vnorm(vsub(_row_v(out.gpos, i, S.bat), handle))
+        t_pos, t_rot = _grip_of(S, out, i, f)
+        if cfg.fix_right and its > 0:
+            t_pos, t_rot = _right_hand(S, L, R, cfg, pose_l, pose_r, i, f, handle, t_pos, t_rot, out, w)
+        out.gcm[i] = vnorm(vsub(_row_v(out.gpos, i, rh), t_pos))
+        out.gdeg[i] = math.degrees(q_angle(_row_q(out.grot, i, rh), t_rot))
 
 
 # --------------------------------------------------------------------------

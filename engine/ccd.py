@@ -121,7 +121,7 @@ def ccd_frame(prot, ppos, chain, pose, handle, tol, max_iter, w):
             break
         if do_polish and err > 0.5 * start_err:
             eff, err, _ = lm_solve(POSITION, prot, ppos, chain, pose, chain, pose, 0, goal, tol, 0.0,
-                                   POLISH, POLISH_STEPS, w)
+                                   POLISH, np.int64(POLISH_STEPS), w)
             if err < tol:
                 break
         if start_err - err < max(STALL, STALL_REL * err):
