@@ -167,7 +167,7 @@ def _column(colw, dofs, m, k, c, scale):
     dofs[m, 2] = 0
 
 
-@inline_kernel
+@kernel
 def _position_columns(prot, free, weight, euler, eff, g_rot, g_pos, cols, colw, dofs):
     """Weighted position columns of a chain's effector."""
     m = 0
@@ -270,7 +270,7 @@ def copy_rows(dst, src, n):
             dst[k, c] = src[k, c]
 
 
-@inline_kernel
+@kernel
 def residual(kind, prot, ppos, ga, la, gb, lb, rp, goal, G):
     """FK and the residual of the problem into G's r. ``ga``/``gb``: (link, offsets,
     order, eff_off) of chain a / b, ``la``/``lb`` their local rotations, ``G``:
@@ -295,7 +295,7 @@ def residual(kind, prot, ppos, ga, la, gb, lb, rp, goal, G):
     return t_pos, math.sqrt(t)
 
 
-@inline_kernel
+@kernel
 def converged(kind, n, point, res, goal, tol, ori_tol, g_rot, r):
     if kind == POSITION:
         return not res >= tol
@@ -307,7 +307,7 @@ def converged(kind, n, point, res, goal, tol, ori_tol, g_rot, r):
     return bat_e < tol and pos_e < tol and ori_e < ori_tol
 
 
-@inline_kernel
+@kernel
 def _columns(kind, prot, rp, point, goal, fa, wa, eoa, ea, fb, eb, G, cols, colw, dofs):
     """The problem's Jacobian columns (chain a: free columns ``fa``, weights ``wa``,
     effector offset ``eoa``, angles ``ea``; chain b: ``fb``, ``eb``) at the FK in
