@@ -352,11 +352,11 @@ def test_viewer_export_that_fails_leaves_nothing(app, tmp_path, monkeypatch):
     calls = []
     render = app.render_scene
 
-    def failing(fbo):
+    def failing(fbo, view=None):      # the frame's own scene (drawn every frame) and the export's
         calls.append(1)
         if len(calls) == 5:
             raise RuntimeError("GPU lost")
-        return render(fbo)
+        return render(fbo, view)
     monkeypatch.setattr(app, "render_scene", failing)
     frame, errors = app.settings.frame, app.state.errors
     app.request_export(tmp_path / "export")

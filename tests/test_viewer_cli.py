@@ -122,6 +122,8 @@ def shown(app):
 
 softgl.set_mode(sys.argv[1])
 app = App((640, 400), headless=False)
+if app.state.engine_warmup is not None:      # the solver compiles behind the window: the drag needs it
+    app.state.engine_warmup.wait()
 player = ScriptPlayer([{"type": "key", "key": "h", "frame": 1},
                        {"type": "drag_target_path", "frame": 3, "circle": {"center": "target", "radius": 40,
                                                                              "turns": 1}, "frames": 24}])
