@@ -79,7 +79,7 @@ class App:
             session.restore(self.settings, self.state, self.camera)
             self.state.session_line = session.line
         if self.state.shots:
-            self.state.engine_warmup = EngineWarmup(self.state, self.settings).start()
+            self.state.engine_warmup = EngineWarmup(self.state, self.settings, apart=not headless).start()
         self.scene_renderer = self._make_scene_renderer()
         self.compositor = Compositor(self.ctx)
         if headless and self.state.engine_warmup is not None:

@@ -1,25 +1,37 @@
 """The engine compiled behind the window. On a fresh install numba compiles the solver's
-kernels (tens of seconds, then cached on disk): a thread does it on scratch copies of the
-library while the window shows the source shot playing and the panel says so. The update
-solves from the frame ``solver_ready`` is set, and the PC pad (its compiled FK, synthesis and
-clean-up) from ``ready``. Nothing of the viewer's state is touched by the thread."""
+kernels (tens of seconds, then cached on disk) while the window shows the source shot and
+the panel says so. The update solves from the frame ``solver_ready`` is set, and the PC pad
+(its compiled FK, synthesis and clean-up) from ``ready``. A thread runs a solve and a pad take
+on scratch copies of the library; nothing of the viewer's state is touched.
+
+With ``apart`` and a cold cache the compiling itself runs in a child process
+(``python -m app.warmup``) that fills the disk cache, and the thread then only loads it:
+compiling in this process would hold numba's global compiler lock for tens of seconds, and the
+window's own small kernels (shadow fit, screen boxes) waited on it at their first use (the
+first frame came at 55 s, measured). The child also leaves this process's GIL alone."""
 from __future__ import annotations
 
 import dataclasses
+import subprocess
+import sys
 import threading
 import time
 
+from numba.core.dispatcher import Dispatcher
+
 from app import pcpad
-from app.settings import ViewerSettings
+from app.settings import SOLVERS, ViewerSettings
 from app.state import AppState
-from app.update import solve
+from app.update import load_library, solve
+from engine import adapt, cleanup
 
 
 class EngineWarmup:
-    def __init__(self, state: AppState, settings: ViewerSettings):
+    def __init__(self, state: AppState, settings: ViewerSettings, apart: bool = False):
         self._state = AppState(rig=state.rig, shots=state.shots, hit_points=state.hit_points,
                                bind_positions=state.bind_positions, ball_start=state.ball_start)
         self._settings = dataclasses.replace(settings, overlays=dataclasses.replace(settings.overlays))
+        self.apart = apart
         self.solver_ready, self.ready = threading.Event(), threading.Event()
         self.error: str = ""               # why warming failed (the main thread then compiles as it goes)
         self.seconds = 0.0                 # how long it took
@@ -40,6 +52,9 @@ class EngineWarmup:
     def _run(self) -> None:
         t0 = time.perf_counter()
         try:
+            if self.apart and not kernels_cached():
+                subprocess.run([sys.executable, "-m", "app.warmup"], check=False,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             self._warm_solver()
             self.solver_ready.set()
             self._warm_pad()
@@ -53,7 +68,7 @@ class EngineWarmup:
     def _warm_solver(self) -> None:
         """Both solvers on the shot the settings choose: every kernel a solve runs, compiled."""
         state, settings = self._state, self._settings
-        for solver in (settings.solver, *(s for s in ("ccd", "dls") if s != settings.solver)):
+        for solver in sorted(SOLVERS, key=lambda name: name != settings.solver):   # the one in use first
             settings.solver = solver
             solve(state, settings)
 
@@ -63,3 +78,17 @@ class EngineWarmup:
         state.shot_index = max(state.shot_index, 0)
         pcpad.set_scores(state, [0.0, 0.0])
         pcpad.apply_preset(state, "exaggerated")
+
+
+def kernels_cached() -> bool:
+    """Whether numba's disk cache holds the solver's and the clean-up's kernels for the
+    engine's sources as they are (a fresh index for each)."""
+    kernels = [v for module in (adapt, cleanup) for v in vars(module).values()
+               if isinstance(v, Dispatcher) and v.py_func.__module__ == module.__name__]
+    return all(k._cache._cache_file._load_index() for k in kernels)
+
+
+if __name__ == "__main__":      # the child of ``apart``: compile into the disk cache, then exit
+    scratch = AppState()
+    if load_library(scratch):
+        EngineWarmup(scratch, ViewerSettings())._run()
