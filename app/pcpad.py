@@ -146,9 +146,9 @@ def _fk_pose(rig, root, local):
 
 
 def _fk_single(rig, root, local):
-    """FK of one pose by the engine's compiled FK (the marker moves every frame)."""
+    """FK of one pose by 3x3 matrices (the marker moves every frame)."""
     from engine.skeleton import pose_fk
-    return pose_fk(rig.skeleton, root, local, compiled=True)
+    return pose_fk(rig.skeleton, root, local, one_pose=True)
 
 
 def pose_at_scores(state, scores) -> Pose:

@@ -16,45 +16,49 @@ frame for scrubbing uses the same call with one frame.
 from __future__ import annotations
 
 import math
-from collections import namedtuple
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from . import quat
-from .ccd import ITERATIONS, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, limit_euler
+from .ccd import (KIND_MULTI, KIND_NONE, ChainArrays, _q_at, _q_put, _v_at, _v_put, ccd_frame,
+                  chain_arrays, chain_fk, chain_scratch, cross, clamp_angle, from_euler_zyx, hinge_axis, limit_euler,
+                  pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub)
 from .dls import DAMPING, default_stiffness, dls_frame
-from .kinematics_nb import (IDENTITY, KIND_MULTI, KIND_NONE, ORIGIN, Chain, chain_fk, fk_into, hinge_axis, load_pose,
-                            new_pose, new_work, store_local)
-from .nb import kernel
-from .quat_nb import (clamp_angle, dot, from_euler_zyx, pick_branch, q_angle, q_at, q_put, qconj, qmul, qrot,
-                      to_euler_zyx, v_at, v_put, vnorm, vsub)
 from .skeleton import local_translations
-from .solve_nb import BOTH, GRIP, Damping, grip_target, lm_solve
+
+def _drop_stale_numba_cache(module: str, depends: tuple[str, ...]) -> None:
+    """numba's on-disk cache only watches the module's own file: drop ``module``'s
+    cached kernels when a module they call into was edited after them."""
+    here = Path(__file__).resolve().parent
+    try:
+        newest = max((here / d).stat().st_mtime for d in depends)
+        for f in (here / "__pycache__").glob(f"{module}.*.nb[ic]"):
+            if f.stat().st_mtime < newest:
+                f.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
+_drop_stale_numba_cache("adapt", ("ccd.py", "dls.py"))
+_drop_stale_numba_cache("dls", ("ccd.py",))
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
+GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
 GRIP_CM = 0.05          # right hand further than this from its grip ...
 GRIP_RAD = math.radians(0.5)  # ... or turned more than this: solve both arms together
 SOLVERS = ("ccd", "dls")
-FALLOFF = 90.0          # cm: the dissertation's default importance falloff (2.2.5)
-# damped Newton on the grip (and on both arms): from 0.5, down to 0.05, give up
-# past 1e4; stop when a step gains less than 0.1 % (stalled against a limit)
-GRIP_DAMPING = Damping(0.5, 0.05, 1e4, 0.25, 0.0, 0.0, 1e-3)
-
-# the shot's per-frame data and the run's settings, as the compiled pipeline takes them
-ShotData = namedtuple("ShotData", "hit parents trans src_local src_grot src_gpos src_euler subtree bat lhand "
-                                  "rel_pos rel_rot rp lj rj")
-RunSettings = namedtuple("RunSettings", "solver fix_right tol max_iter damping ori_tol")
-Outputs = namedtuple("Outputs", "local grot gpos blend handle err gcm gdeg")
 
 
 @dataclass
 class AdaptSettings:
-    falloff: float = FALLOFF     # cm
+    falloff: float = 90.0        # cm
     wrist_dof: int = 0           # 0 (locked, default) or 2
-    solver: str = SOLVERS[0]     # "ccd" | "dls"
-    iterations: int = ITERATIONS
-    tolerance: float = TOLERANCE  # cm
+    solver: str = "ccd"          # "ccd" | "dls"
+    iterations: int = 200
+    tolerance: float = 0.001     # cm
     fix_right_hand: bool = True
 
 
@@ -75,220 +79,613 @@ class Adaptation:                # whole adapted shot
 # --------------------------------------------------------------------------
 # compiled per-frame pipeline
 
-@kernel
-def _orient_joint(prot, kd, free, local, euler, src, lo, hi, g_rot, g_pos, k, eff, target_rot):
-    """Turn chain joint k (of kind kd) toward putting the last joint on target_rot,
-    if that leaves the effector where it is; False when it would move it."""
-    n = free.shape[0]
-    u = vsub(eff, v_at(g_pos, k))
-    gp = prot if k == 0 else q_at(g_rot, k - 1)
-    last = q_at(g_rot, n - 1)
-    if kd == KIND_MULTI:
-        if vnorm(u) > 1e-6:
-            return False
-        # the joint's global rotation that would put the last joint on target
-        want = qmul(target_rot, qmul(qconj(last), q_at(g_rot, k)))
-        e = pick_branch(to_euler_zyx(qmul(qconj(gp), want)), euler, src, free, lo, hi, k)
-        for c in range(3):
-            if free[k, c]:
-                euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
-            else:
-                euler[k, c] = src[k, c]
-    else:
-        c = kd - 1
-        axis = hinge_axis(prot, g_rot, euler, k, c)
-        du = dot(u, axis)
-        if vnorm((u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])) > 1e-6:
-            return False
-        # twist of the remaining error about the hinge axis
-        qe = qmul(target_rot, qconj(last))
-        if qe[0] < 0.0:
-            qe = (-qe[0], -qe[1], -qe[2], -qe[3])
-        theta = 2.0 * math.atan2(qe[1] * axis[0] + qe[2] * axis[1] + qe[3] * axis[2], qe[0])
-        euler[k, c] = clamp_angle(euler[k, c] + theta, lo[k, c], hi[k, c])
-    q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
-    return True
-
-
-@kernel
-def orient_finish(prot, ppos, chain, pose, target_rot, reps, ori_tol, w):
+@njit(cache=True)
+def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
+                  target_rot, g_rot, g_pos, reps, ori_tol):
     """Turn the trailing chain joints that leave the effector where it is (the
     effector's own joint, a twist about the bone it lies on) so the last
     joint's global rotation approaches target_rot. Returns the angle error (rad)."""
-    kind, free, local, g_rot, g_pos = chain.kind, chain.free, pose.local, w.g_rot, w.g_pos
-    euler, src, lo, hi = pose.euler, pose.src, pose.lo, pose.hi
-    n = kind.shape[0]
-    eff = chain_fk(prot, ppos, chain, local, g_rot, g_pos)
-    err = q_angle(q_at(g_rot, n - 1), target_rot)
+    n = offsets.shape[0]
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    err = q_angle(_q_at(g_rot, n - 1), target_rot)
     for _ in range(reps):
         if err < ori_tol:
             break
         for k in range(n - 1, -1, -1):
-            if kind[k] == KIND_NONE:
+            kd = kind[k]
+            if kd == KIND_NONE:
                 continue
-            if not _orient_joint(prot, kind[k], free, local, euler, src, lo, hi, g_rot, g_pos, k, eff, target_rot):
-                break
-            eff = chain_fk(prot, ppos, chain, local, g_rot, g_pos)
-        err = q_angle(q_at(g_rot, n - 1), target_rot)
+            u = vsub(eff, _v_at(g_pos, k))
+            gp = prot if k == 0 else _q_at(g_rot, k - 1)
+            last = _q_at(g_rot, n - 1)
+            if kd == KIND_MULTI:
+                if vnorm(u) > 1e-6:
+                    break
+                # the joint's global rotation that would put the last joint on target
+                want = qmul(target_rot, qmul(qconj(last), _q_at(g_rot, k)))
+                e = pick_branch(to_euler_zyx(qmul(qconj(gp), want)), euler, src_euler, free, lo, hi, k)
+                for c in range(3):
+                    if free[k, c]:
+                        euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
+                    else:
+                        euler[k, c] = src_euler[k, c]
+            else:
+                c = kd - 1
+                axis = hinge_axis(prot, g_rot, euler, k, c)
+                du = dot3(u, axis)
+                if vnorm((u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])) > 1e-6:
+                    break
+                # twist of the remaining error about the hinge axis
+                qe = qmul(target_rot, qconj(last))
+                if qe[0] < 0.0:
+                    qe = (-qe[0], -qe[1], -qe[2], -qe[3])
+                theta = 2.0 * math.atan2(qe[1] * axis[0] + qe[2] * axis[1] + qe[3] * axis[2], qe[0])
+                euler[k, c] = clamp_angle(euler[k, c] + theta, lo[k, c], hi[k, c])
+            _q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        err = q_angle(_q_at(g_rot, n - 1), target_rot)
     return err
 
 
-@kernel
-def grip_solve(prot, ppos, chain, pose, target_pos, target_rot, tol, ori_tol, max_iter, w):
+@njit(cache=True)
+def _grip_residual(eff, last, target_pos, target_rot, length, r):
+    """6-vector residual (position cm, rotation vector * length) into r; returns its norm."""
+    qe = qmul(target_rot, qconj(last))
+    if qe[0] < 0.0:
+        qe = (-qe[0], -qe[1], -qe[2], -qe[3])
+    sv = math.sqrt(qe[1] * qe[1] + qe[2] * qe[2] + qe[3] * qe[3])
+    scale = 0.0 if sv < 1e-15 else 2.0 * math.atan2(sv, qe[0]) / sv * length
+    r[0] = target_pos[0] - eff[0]
+    r[1] = target_pos[1] - eff[1]
+    r[2] = target_pos[2] - eff[2]
+    r[3] = qe[1] * scale
+    r[4] = qe[2] * scale
+    r[5] = qe[3] * scale
+    t = 0.0
+    for i in range(6):
+        t += r[i] * r[i]
+    return math.sqrt(t)
+
+
+@njit(cache=True)
+def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, damping, max_step,
+              cols, dofs, A, x):
+    """One damped least-squares step on position AND orientation of the last
+    chain joint (6 rows: 3 position, 3 rotation scaled by ``length`` cm/rad).
+    Limits by clamping and freezing, as :func:`engine.ccd.jacobian_step`."""
+    n = local.shape[0]
+    m = 0
+    for k in range(n):
+        for c in range(3):
+            if free[k, c]:
+                a = hinge_axis(prot, g_rot, euler, k, c)
+                col = cross(a, vsub(eff, _v_at(g_pos, k)))
+                cols[m, 0] = col[0]
+                cols[m, 1] = col[1]
+                cols[m, 2] = col[2]
+                cols[m, 3] = a[0] * length
+                cols[m, 4] = a[1] * length
+                cols[m, 5] = a[2] * length
+                dofs[m, 0] = k
+                dofs[m, 1] = c
+                m += 1
+    for _round in range(3):
+        for i in range(6):
+            for j in range(6):
+                A[i, j] = damping * damping if i == j else 0.0
+        for q in range(m):
+            if dofs[q, 0] < 0:
+                continue
+            for i in range(6):
+                for j in range(6):
+                    A[i, j] += cols[q, i] * cols[q, j]
+        # Cholesky solve A x = r (A is symmetric positive definite)
+        for i in range(6):
+            for j in range(i + 1):
+                t = A[i, j]
+                for k2 in range(j):
+                    t -= A[i, k2] * A[j, k2]
+                if i == j:
+                    A[i, i] = math.sqrt(max(t, 1e-300))
+                else:
+                    A[i, j] = t / A[j, j]
+        for i in range(6):
+            t = r[i]
+            for k2 in range(i):
+                t -= A[i, k2] * x[k2]
+            x[i] = t / A[i, i]
+        for i in range(5, -1, -1):
+            t = x[i]
+            for k2 in range(i + 1, 6):
+                t -= A[k2, i] * x[k2]
+            x[i] = t / A[i, i]
+        biggest = 0.0
+        for q in range(m):
+            if dofs[q, 0] >= 0:
+                d = 0.0
+                for i in range(6):
+                    d += cols[q, i] * x[i]
+                biggest = max(biggest, abs(d))
+        scale = 1.0 if biggest <= max_step else max_step / biggest
+        clamped = False
+        for q in range(m):
+            if dofs[q, 0] < 0:
+                continue
+            k = dofs[q, 0]
+            c = dofs[q, 1]
+            d = 0.0
+            for i in range(6):
+                d += cols[q, i] * x[i]
+            want = euler[k, c] + d * scale
+            got = clamp_angle(want, lo[k, c], hi[k, c])
+            if got != want:
+                gd = got - euler[k, c]
+                euler[k, c] = got
+                for i in range(6):
+                    r[i] -= cols[q, i] * gd
+                dofs[q, 0] = -1
+                clamped = True
+        if not clamped:
+            for q in range(m):
+                if dofs[q, 0] < 0:
+                    continue
+                d = 0.0
+                for i in range(6):
+                    d += cols[q, i] * x[i]
+                euler[dofs[q, 0], dofs[q, 1]] += d * scale
+            break
+    for k in range(n):
+        if free[k, 0] or free[k, 1] or free[k, 2]:
+            _q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+
+
+@njit(cache=True)
+def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_pos, target_rot,
+               tol, ori_tol, max_iter, g_rot, g_pos, cols6, dofs, A, x, r, bak_l, bak_e):
     """Damped Newton on position and orientation of the chain's last joint
     from the current pose (after the position solve and the twist/hand finish
     could not get the orientation). Returns (position error, angle error)."""
-    eff, _, _ = lm_solve(GRIP, prot, ppos, chain, pose, chain, pose, 0, (target_pos, target_rot, ORIGIN),
-                         tol, ori_tol, GRIP_DAMPING, max_iter, w)
-    return vnorm(vsub(eff, target_pos)), q_angle(q_at(w.g_rot, chain.order.shape[0] - 1), target_rot)
+    n = offsets.shape[0]
+    length = GRIP_LENGTH
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    res = _grip_residual(eff, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+    lam = 0.5
+    for _ in range(max_iter):
+        pe = vnorm(vsub(eff, target_pos))
+        oe = q_angle(_q_at(g_rot, n - 1), target_rot)
+        if pe < tol and oe < ori_tol:
+            break
+        bak_l[:n] = local
+        bak_e[:n] = euler
+        pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, lam, 0.25,
+                  cols6, dofs, A, x)
+        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        res2 = _grip_residual(eff2, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+        if not res2 < res:
+            local[:] = bak_l[:n]
+            euler[:] = bak_e[:n]
+            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+            res = _grip_residual(eff, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+            lam *= 4.0
+            if lam > 1e4:
+                break
+            continue
+        gain = res - res2
+        eff = eff2
+        res = res2
+        lam = max(0.05, lam * 0.5)
+        if gain < 1e-3 * res:       # stalled against a limit: as near as it gets
+            break
+    return vnorm(vsub(eff, target_pos)), q_angle(_q_at(g_rot, n - 1), target_rot)
 
 
-@kernel
-def both_arms_solve(prot, ppos, left, pose_l, rp, right, pose_r, handle, rel_p, rel_q, tol, ori_tol,
-                    max_iter, w):
+@njit(cache=True)
+def _solve_spd(A, r, x, R):
+    """Solve A x = r for a symmetric positive definite R x R matrix (A is overwritten)."""
+    for i in range(R):
+        for j in range(i + 1):
+            t = A[i, j]
+            for k in range(j):
+                t -= A[i, k] * A[j, k]
+            if i == j:
+                A[i, i] = math.sqrt(max(t, 1e-300))
+            else:
+                A[i, j] = t / A[j, j]
+    for i in range(R):
+        t = r[i]
+        for k in range(i):
+            t -= A[i, k] * x[k]
+        x[i] = t / A[i, i]
+    for i in range(R - 1, -1, -1):
+        t = x[i]
+        for k in range(i + 1, R):
+            t -= A[k, i] * x[k]
+        x[i] = t / A[i, i]
+
+
+@njit(cache=True)
+def _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff, loc_r,
+                   gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, length, r):
+    """FK of both arms and the 9-residual (bat, grip position, grip rotation);
+    returns (bat, right hand, grip target position, its norm)."""
+    nl = l_off.shape[0]
+    nr = r_off.shape[0]
+    bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
+    rh = chain_fk(_q_at(gl_rot, rp), _v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
+    g_lh = _q_at(gl_rot, nl - 1)
+    t_pos = vadd(_v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
+    t_rot = qmul(g_lh, rel_q)
+    for i in range(3):
+        r[i] = bat_w * (handle[i] - bat[i])
+    tmp = np.empty(6)
+    _grip_residual(rh, _q_at(gr_rot, nr - 1), t_pos, t_rot, length, tmp)
+    for i in range(6):
+        r[3 + i] = tmp[i]
+    t = 0.0
+    for i in range(9):
+        t += r[i] * r[i]
+    return t_pos, math.sqrt(t)
+
+
+@njit(cache=True)
+def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                    r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, rel_p, rel_q,
+                    tol, ori_tol, max_iter):
     """Damped Newton on both arm chains at once: the bat on its handle AND the
-    right hand on its grip ``rel_p``/``rel_q`` in the left hand's frame (the torso
-    joints shared by both chains, up to left-chain joint ``rp``, can then lean to
-    give the right arm its reach). Used when the right arm alone cannot get
-    back to the grip."""
-    lm_solve(BOTH, prot, ppos, left, pose_l, right, pose_r, rp, (handle, rel_q, rel_p), tol, ori_tol,
-             GRIP_DAMPING, max_iter, w)
+    right hand on its grip (the torso joints shared by both chains can then
+    lean to give the right arm its reach). Used when the right arm alone cannot
+    get back to the grip."""
+    nl = l_off.shape[0]
+    nr = r_off.shape[0]
+    M = 3 * (nl + nr)
+    gl_rot = np.empty((nl, 4))
+    gl_pos = np.empty((nl, 3))
+    gr_rot = np.empty((nr, 4))
+    gr_pos = np.empty((nr, 3))
+    cols = np.empty((M, 9))
+    dofs = np.empty((M, 3), np.int64)
+    A = np.empty((9, 9))
+    x = np.empty(9)
+    r = np.empty(9)
+    bl = np.empty((nl, 4))
+    be = np.empty((nl, 3))
+    br = np.empty((nr, 4))
+    bre = np.empty((nr, 3))
+    bat_w = 10.0        # the bat on the ball matters most
+    L = GRIP_LENGTH
+    t_pos, res = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff,
+                                loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+    lam = 0.5
+    for _ in range(max_iter):
+        bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / bat_w
+        pos_e = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
+        ori_e = math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / L
+        if bat_e < tol and pos_e < tol and ori_e < ori_tol:
+            break
+        bl[:] = loc_l
+        be[:] = eul_l
+        br[:] = loc_r
+        bre[:] = eul_r
+        bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
+        rh = _v_at(gr_pos, nr - 1)
+        rv = (r[6] / L, r[7] / L, r[8] / L)
+        rpos = (r[3], r[4], r[5])
+        m = 0
+        for k in range(nl):
+            for c in range(3):
+                if not l_free[k, c]:
+                    continue
+                a = hinge_axis(prot, gl_rot, eul_l, k, c)
+                pk = _v_at(gl_pos, k)
+                cb = cross(a, vsub(bat, pk))
+                if k <= rp:     # turns the right arm and its target together
+                    cg = cross(a, rpos)
+                    co = cross(a, rv)
+                    cg = (-cg[0], -cg[1], -cg[2])
+                    co = (-L * co[0], -L * co[1], -L * co[2])
+                else:           # turns the left hand (the target) only
+                    cg = cross(a, vsub(t_pos, pk))
+                    cg = (-cg[0], -cg[1], -cg[2])
+                    co = (-L * a[0], -L * a[1], -L * a[2])
+                for i in range(3):
+                    cols[m, i] = bat_w * cb[i]
+                    cols[m, 3 + i] = cg[i]
+                    cols[m, 6 + i] = co[i]
+                dofs[m, 0] = 0
+                dofs[m, 1] = k
+                dofs[m, 2] = c
+                m += 1
+        pr = _q_at(gl_rot, rp)
+        for k in range(nr):
+            for c in range(3):
+                if not r_free[k, c]:
+                    continue
+                a = hinge_axis(pr, gr_rot, eul_r, k, c)
+                cg = cross(a, vsub(rh, _v_at(gr_pos, k)))
+                for i in range(3):
+                    cols[m, i] = 0.0
+                    cols[m, 3 + i] = cg[i]
+                    cols[m, 6 + i] = L * a[i]
+                dofs[m, 0] = 1
+                dofs[m, 1] = k
+                dofs[m, 2] = c
+                m += 1
+        for _round in range(3):
+            for i in range(9):
+                for j in range(9):
+                    A[i, j] = lam * lam if i == j else 0.0
+            for q in range(m):
+                if dofs[q, 0] < 0:
+                    continue
+                for i in range(9):
+                    ci = cols[q, i]
+                    if ci != 0.0:
+                        for j in range(9):
+                            A[i, j] += ci * cols[q, j]
+            _solve_spd(A, r, x, 9)
+            biggest = 0.0
+            for q in range(m):
+                if dofs[q, 0] >= 0:
+                    d = 0.0
+                    for i in range(9):
+                        d += cols[q, i] * x[i]
+                    biggest = max(biggest, abs(d))
+            scale = 1.0 if biggest <= 0.25 else 0.25 / biggest
+            clamped = False
+            for q in range(m):
+                if dofs[q, 0] < 0:
+                    continue
+                d = 0.0
+                for i in range(9):
+                    d += cols[q, i] * x[i]
+                k = dofs[q, 1]
+                c = dofs[q, 2]
+                if dofs[q, 0] == 0:
+                    want = eul_l[k, c] + d * scale
+                    got = clamp_angle(want, lo_l[k, c], hi_l[k, c])
+                    if got != want:
+                        gd = got - eul_l[k, c]
+                        eul_l[k, c] = got
+                else:
+                    want = eul_r[k, c] + d * scale
+                    got = clamp_angle(want, lo_r[k, c], hi_r[k, c])
+                    if got != want:
+                        gd = got - eul_r[k, c]
+                        eul_r[k, c] = got
+                if got != want:
+                    for i in range(9):
+                        r[i] -= cols[q, i] * gd
+                    dofs[q, 0] = -1
+                    clamped = True
+            if not clamped:
+                for q in range(m):
+                    if dofs[q, 0] < 0:
+                        continue
+                    d = 0.0
+                    for i in range(9):
+                        d += cols[q, i] * x[i]
+                    if dofs[q, 0] == 0:
+                        eul_l[dofs[q, 1], dofs[q, 2]] += d * scale
+                    else:
+                        eul_r[dofs[q, 1], dofs[q, 2]] += d * scale
+                break
+        for k in range(nl):
+            if l_free[k, 0] or l_free[k, 1] or l_free[k, 2]:
+                _q_put(loc_l, k, from_euler_zyx(eul_l[k, 0], eul_l[k, 1], eul_l[k, 2]))
+        for k in range(nr):
+            if r_free[k, 0] or r_free[k, 1] or r_free[k, 2]:
+                _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+        t_pos2, res2 = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
+                                      r_eoff, loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+        if not res2 < res:
+            loc_l[:] = bl
+            eul_l[:] = be
+            loc_r[:] = br
+            eul_r[:] = bre
+            t_pos, res = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
+                                        r_eoff, loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+            lam *= 4.0
+            if lam > 1e4:
+                break
+            continue
+        gain = res - res2
+        t_pos = t_pos2
+        res = res2
+        lam = max(0.05, lam * 0.5)
+        if gain < 1e-3 * res:
+            break
 
 
-@kernel
-def _effective_limits(chain, pose):
+@njit(cache=True)
+def dot3(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+@njit(cache=True)
+def _fk_subtree(i, f, parents, trans, subtree, out_local, out_grot, out_gpos):
+    """Recompute globals of frame slot i for the joints in subtree (parents first)."""
+    for j in range(parents.shape[0]):
+        if not subtree[j]:
+            continue
+        p = parents[j]
+        pr = (out_grot[i, p, 0], out_grot[i, p, 1], out_grot[i, p, 2], out_grot[i, p, 3])
+        pp = (out_gpos[i, p, 0], out_gpos[i, p, 1], out_gpos[i, p, 2])
+        t = (trans[f, j, 0], trans[f, j, 1], trans[f, j, 2])
+        g = qmul(pr, (out_local[i, j, 0], out_local[i, j, 1], out_local[i, j, 2], out_local[i, j, 3]))
+        pos = vadd(pp, qrot(pr, t))
+        out_grot[i, j, 0] = g[0]
+        out_grot[i, j, 1] = g[1]
+        out_grot[i, j, 2] = g[2]
+        out_grot[i, j, 3] = g[3]
+        out_gpos[i, j, 0] = pos[0]
+        out_gpos[i, j, 1] = pos[1]
+        out_gpos[i, j, 2] = pos[2]
+
+
+@njit(cache=True)
+def _effective_limits(lo, hi, src, out_lo, out_hi):
     """The rig's limits widened to take in the source angle: a source frame
     outside its limits may stay where it is or move back in, never further out
     (and never jump to the far limit)."""
-    lo, hi, src, out_lo, out_hi = chain.lo, chain.hi, pose.src, pose.lo, pose.hi
     for k in range(lo.shape[0]):
         for c in range(3):
             out_lo[k, c] = min(lo[k, c], src[k, c])
             out_hi[k, c] = max(hi[k, c], src[k, c])
 
 
-@kernel
-def _solve_chain(cfg, prot, ppos, chain, pose, handle, w):
-    if cfg.solver == 0:
-        return ccd_frame(prot, ppos, chain, pose, handle, cfg.tol, cfg.max_iter, w)
-    return dls_frame(prot, ppos, chain, pose, handle, cfg.tol, cfg.max_iter, cfg.damping, w)
+@njit(cache=True)
+def _solve_chain(solver, prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
+                 weight, handle, tol, max_iter, damping, g_rot, g_pos, cols, dofs, bak_l, bak_e):
+    if solver == 0:
+        return ccd_frame(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
+                         weight, handle, tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
+    return dls_frame(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, damping, handle,
+                     tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
 
 
-@kernel
-def _row_q(a, f, j):
-    return (a[f, j, 0], a[f, j, 1], a[f, j, 2], a[f, j, 3])
-
-
-@kernel
-def _row_v(a, f, j):
-    return (a[f, j, 0], a[f, j, 1], a[f, j, 2])
-
-
-@kernel
-def _grip_of(S, out, i, f):
-    """The right hand's grip target (position, rotation) on slot i's left hand."""
-    return grip_target(out.grot[i], out.gpos[i], S.lhand + 1, _row_v3(S.rel_pos, f), _row_q4(S.rel_rot, f))
-
-
-@kernel
-def _row_v3(a, f):
-    return (a[f, 0], a[f, 1], a[f, 2])
-
-
-@kernel
-def _row_q4(a, f):
-    return (a[f, 0], a[f, 1], a[f, 2], a[f, 3])
-
-
-@kernel
-def _right_hand(S, L, R, cfg, pose_l, pose_r, i, f, handle, t_pos, t_rot, out, w):
-    """Slot i's right hand back on its grip (t_pos, t_rot) after the left arm
-    moved: wrist position first (as the dissertation), then the joints that
-    turn the hand without moving the wrist; if limits keep the hand off its
-    grip, both together by damped Newton, then both arms (and if the bat gave
-    way to the grip, the bat back, then the right arm again). Returns the grip.
-    (One function, not three: each call level costs numba seconds of compile.)"""
-    load_pose(pose_r, out.local[i], S.src_euler[f], S.rj)
-    _effective_limits(R, pose_r)
-    pj = S.parents[S.rj[0]]
-    prot = _row_q(out.grot, i, pj)
-    ppos = _row_v(out.gpos, i, pj)
-    nr = R.order.shape[0]
-    eff = chain_fk(prot, ppos, R, pose_r.local, w.g_rot, w.g_pos)
-    if not (vnorm(vsub(eff, t_pos)) >= cfg.tol or q_angle(q_at(w.g_rot, nr - 1), t_rot) >= cfg.ori_tol):
-        return t_pos, t_rot     # the left arm's move left the grip where it was
-    _solve_chain(cfg, prot, ppos, R, pose_r, t_pos, w)
-    oe = orient_finish(prot, ppos, R, pose_r, t_rot, 8, cfg.ori_tol, w)
-    eff = chain_fk(prot, ppos, R, pose_r.local, w.g_rot, w.g_pos)
-    if vnorm(vsub(eff, t_pos)) >= cfg.tol or oe >= cfg.ori_tol:
-        pe, oe = grip_solve(prot, ppos, R, pose_r, t_pos, t_rot, cfg.tol, cfg.ori_tol, 30, w)
-        if (pe > GRIP_CM or oe > GRIP_RAD) and S.rp >= 0:
-            # out of the right arm's reach: both arms together (the torso leans)
-            pj = S.parents[S.lj[0]]
-            prl = _row_q(S.src_grot, f, pj)
-            ppl = _row_v(S.src_gpos, f, pj)
-            rel_p = _row_v3(S.rel_pos, f)
-            rel_q = _row_q4(S.rel_rot, f)
-            both_arms_solve(prl, ppl, L, pose_l, S.rp, R, pose_r, handle, rel_p, rel_q, cfg.tol, cfg.ori_tol, 40, w)
-            b2 = chain_fk(prl, ppl, L, pose_l.local, w.g_rot, w.g_pos)
-            if vnorm(vsub(b2, handle)) >= cfg.tol:
-                # the bat gave way to the grip: put it back, then the right arm again
-                _solve_chain(cfg, prl, ppl, L, pose_l, handle, w)
-                chain_fk(prl, ppl, L, pose_l.local, w.g_rot, w.g_pos)
-                tp2, tr2 = grip_target(w.g_rot, w.g_pos, L.order.shape[0], rel_p, rel_q)
-                grip_solve(q_at(w.g_rot, S.rp), v_at(w.g_pos, S.rp), R, pose_r, tp2, tr2, cfg.tol, cfg.ori_tol, 30, w)
-            store_local(pose_l, S.lj, out.local[i])
-    store_local(pose_r, S.rj, out.local[i])
-    fk_into(IDENTITY, ORIGIN, S.parents, S.trans[f], out.local[i], S.subtree, out.grot[i], out.gpos[i])
-    out.err[i] = vnorm(vsub(_row_v(out.gpos, i, S.bat), handle))
-    return _grip_of(S, out, i, f)
-
-
-@kernel
-def _adapt_frames(frames, desired, blends, s, left, right, c, outs):
-    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1.
-
-    ``s``, ``left``, ``right``, ``c``, ``outs``: the fields of ShotData, the two
-    Chains, RunSettings and Outputs as plain tuples (numba types a namedtuple
-    argument in Python, some microseconds a call, a plain tuple in C; scrubbing
-    calls this every frame). Kept one level deep on purpose: numba re-optimises
-    a kernel's whole call tree at every level, so each wrapper costs seconds of
-    cold compile."""
-    S, L, R, cfg, out = ShotData(*s), Chain(*left), Chain(*right), RunSettings(*c), Outputs(*outs)
-    nl = L.order.shape[0]
-    nr = R.order.shape[0]
-    w = new_work(max(nl, nr))
-    pose_l = new_pose(nl)
-    pose_r = new_pose(nr)
-    rh = S.rj[nr - 1]
-    b_h = _row_v(S.src_gpos, S.hit, S.bat)
-    r_h = _row_q(S.src_grot, S.hit, S.bat)
+@njit(cache=True)
+def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_grot, src_gpos,
+                  src_euler, subtree_l, subtree_r, bat, lhand,
+                  lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
+                  rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w,
+                  rel_pos, rel_rot, rp, fix_right, solver, tol, max_iter, damping, ori_tol,
+                  out_local, out_grot, out_gpos, out_blend, out_handle, out_err, out_gcm, out_gdeg):
+    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1."""
+    nl = lj.shape[0]
+    nr = rj.shape[0]
+    nmax = max(nl, nr)
+    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(nmax)
+    loc_l = np.empty((nl, 4))
+    eul_l = np.empty((nl, 3))
+    src_l = np.empty((nl, 3))
+    cols6 = np.empty((3 * nmax, 6))
+    A6 = np.empty((6, 6))
+    x6 = np.empty(6)
+    r6 = np.empty(6)
+    lo_l = np.empty((nl, 3))
+    hi_l = np.empty((nl, 3))
+    lo_r = np.empty((nr, 3))
+    hi_r = np.empty((nr, 3))
+    loc_r = np.empty((nr, 4))
+    eul_r = np.empty((nr, 3))
+    src_r = np.empty((nr, 3))
+    rh = rj[nr - 1]
+    b_h = (src_gpos[hit, bat, 0], src_gpos[hit, bat, 1], src_gpos[hit, bat, 2])
+    r_h = (src_grot[hit, bat, 0], src_grot[hit, bat, 1], src_grot[hit, bat, 2], src_grot[hit, bat, 3])
     offset = qrot(qconj(r_h), vsub((desired[0], desired[1], desired[2]), b_h))
     for i in range(frames.shape[0]):
         f = frames[i]
-        b_f = _row_v(S.src_gpos, f, S.bat)
+        out_local[i] = src_local[f]
+        out_grot[i] = src_grot[f]
+        out_gpos[i] = src_gpos[f]
+        b_f = (src_gpos[f, bat, 0], src_gpos[f, bat, 1], src_gpos[f, bat, 2])
+        r_f = (src_grot[f, bat, 0], src_grot[f, bat, 1], src_grot[f, bat, 2], src_grot[f, bat, 3])
         blend = blends[f]
-        o = qrot(_row_q(S.src_grot, f, S.bat), offset)
-        out.blend[i] = blend
+        o = qrot(r_f, offset)
         handle = (b_f[0] + blend * o[0], b_f[1] + blend * o[1], b_f[2] + blend * o[2])
-        # the left arm puts the bat on the handle, the right hand goes back on its grip
-        out.local[i] = S.src_local[f]
-        out.grot[i] = S.src_grot[f]
-        out.gpos[i] = S.src_gpos[f]
-        v_put(out.handle, i, handle)
-        load_pose(pose_l, S.src_local[f], S.src_euler[f], S.lj)
-        _effective_limits(L, pose_l)
-        pj = S.parents[S.lj[0]]
-        _, its = _solve_chain(cfg, _row_q(S.src_grot, f, pj), _row_v(S.src_gpos, f, pj), L, pose_l, handle, w)
+        out_blend[i] = blend
+        _v_put(out_handle, i, handle)
+        # left arm: bat joint onto the handle
+        for k in range(nl):
+            for c in range(4):
+                loc_l[k, c] = src_local[f, lj[k], c]
+            for c in range(3):
+                src_l[k, c] = src_euler[f, lj[k], c]
+                eul_l[k, c] = src_l[k, c]
+        _effective_limits(l_lo, l_hi, src_l, lo_l, hi_l)
+        pj = parents[lj[0]]
+        prot = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
+        ppos = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
+        err, its = _solve_chain(solver, prot, ppos, l_off, l_eoff, loc_l, eul_l, src_l, l_free, l_kind,
+                                lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot, g_pos,
+                                cols, dofs, bak_l, bak_e)
         if its > 0:
-            store_local(pose_l, S.lj, out.local[i])
-            fk_into(IDENTITY, ORIGIN, S.parents, S.trans[f], out.local[i], S.subtree, out.grot[i], out.gpos[i])
-        out.err[i] = vnorm(vsub(_row_v(out.gpos, i, S.bat), handle))
-        t_pos, t_rot = _grip_of(S, out, i, f)
-        if cfg.fix_right and its > 0:
-            t_pos, t_rot = _right_hand(S, L, R, cfg, pose_l, pose_r, i, f, handle, t_pos, t_rot, out, w)
-        out.gcm[i] = vnorm(vsub(_row_v(out.gpos, i, rh), t_pos))
-        out.gdeg[i] = math.degrees(q_angle(_row_q(out.grot, i, rh), t_rot))
+            for k in range(nl):
+                for c in range(4):
+                    out_local[i, lj[k], c] = loc_l[k, c]
+            _fk_subtree(i, f, parents, trans, subtree_l, out_local, out_grot, out_gpos)
+        bpos = (out_gpos[i, bat, 0], out_gpos[i, bat, 1], out_gpos[i, bat, 2])
+        out_err[i] = vnorm(vsub(bpos, handle))
+        # right hand back on its source grip relative to the left hand
+        g_lh = (out_grot[i, lhand, 0], out_grot[i, lhand, 1], out_grot[i, lhand, 2], out_grot[i, lhand, 3])
+        p_lh = (out_gpos[i, lhand, 0], out_gpos[i, lhand, 1], out_gpos[i, lhand, 2])
+        t_pos = vadd(p_lh, qrot(g_lh, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
+        t_rot = qmul(g_lh, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
+        if fix_right and its > 0:
+            for k in range(nr):
+                for c in range(4):
+                    loc_r[k, c] = out_local[i, rj[k], c]
+                for c in range(3):
+                    src_r[k, c] = src_euler[f, rj[k], c]
+                    eul_r[k, c] = src_r[k, c]
+            _effective_limits(r_lo, r_hi, src_r, lo_r, hi_r)
+            pj = parents[rj[0]]
+            prot = (out_grot[i, pj, 0], out_grot[i, pj, 1], out_grot[i, pj, 2], out_grot[i, pj, 3])
+            ppos = (out_gpos[i, pj, 0], out_gpos[i, pj, 1], out_gpos[i, pj, 2])
+            eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
+            moved = (vnorm(vsub(eff, t_pos)) >= tol
+                     or q_angle((g_rot[nr - 1, 0], g_rot[nr - 1, 1], g_rot[nr - 1, 2], g_rot[nr - 1, 3]),
+                                t_rot) >= ori_tol)
+            if moved:
+                # wrist position first (as the dissertation), then the joints
+                # that turn the hand without moving the wrist; if limits keep the
+                # hand off its grip, both together by damped Newton
+                _solve_chain(solver, prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
+                             lo_r, hi_r, r_w, t_pos, tol, max_iter, damping, g_rot, g_pos,
+                             cols, dofs, bak_l, bak_e)
+                oe = orient_finish(prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
+                                   lo_r, hi_r, t_rot, g_rot, g_pos, 8, ori_tol)
+                eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
+                if vnorm(vsub(eff, t_pos)) >= tol or oe >= ori_tol:
+                    pe, oe = grip_solve(prot, ppos, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos,
+                                        t_rot, tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6,
+                                        bak_l, bak_e)
+                    if (pe > GRIP_CM or oe > GRIP_RAD) and rp >= 0:
+                        # out of the right arm's reach: let the torso help
+                        pj = parents[lj[0]]
+                        both_arms_solve((src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2],
+                                         src_grot[f, pj, 3]),
+                                        (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2]),
+                                        l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                                        r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle,
+                                        (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2]),
+                                        (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]),
+                                        tol, ori_tol, 40)
+                        prl = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
+                        ppl = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
+                        b2 = chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
+                        if vnorm(vsub(b2, handle)) >= tol:
+                            # the bat gave way to the grip: put it back, then the right arm again
+                            _solve_chain(solver, prl, ppl, l_off, l_eoff, loc_l, eul_l, src_l, l_free,
+                                         l_kind, lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot,
+                                         g_pos, cols, dofs, bak_l, bak_e)
+                            chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
+                            pr2 = (g_rot[rp, 0], g_rot[rp, 1], g_rot[rp, 2], g_rot[rp, 3])
+                            pp2 = (g_pos[rp, 0], g_pos[rp, 1], g_pos[rp, 2])
+                            lh2 = (g_rot[nl - 1, 0], g_rot[nl - 1, 1], g_rot[nl - 1, 2], g_rot[nl - 1, 3])
+                            tp2 = vadd((g_pos[nl - 1, 0], g_pos[nl - 1, 1], g_pos[nl - 1, 2]),
+                                       qrot(lh2, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
+                            tr2 = qmul(lh2, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
+                            grip_solve(pr2, pp2, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, tp2, tr2,
+                                       tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+                        for k in range(nl):
+                            for c in range(4):
+                                out_local[i, lj[k], c] = loc_l[k, c]
+                for k in range(nr):
+                    for c in range(4):
+                        out_local[i, rj[k], c] = loc_r[k, c]
+                _fk_subtree(i, f, parents, trans, subtree_l, out_local, out_grot, out_gpos)
+                bpos = (out_gpos[i, bat, 0], out_gpos[i, bat, 1], out_gpos[i, bat, 2])
+                out_err[i] = vnorm(vsub(bpos, handle))
+                g_lh = (out_grot[i, lhand, 0], out_grot[i, lhand, 1], out_grot[i, lhand, 2],
+                        out_grot[i, lhand, 3])
+                p_lh = (out_gpos[i, lhand, 0], out_gpos[i, lhand, 1], out_gpos[i, lhand, 2])
+                t_pos = vadd(p_lh, qrot(g_lh, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
+                t_rot = qmul(g_lh, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
+        g_rh = (out_grot[i, rh, 0], out_grot[i, rh, 1], out_grot[i, rh, 2], out_grot[i, rh, 3])
+        p_rh = (out_gpos[i, rh, 0], out_gpos[i, rh, 1], out_gpos[i, rh, 2])
+        out_gcm[i] = vnorm(vsub(p_rh, t_pos))
+        out_gdeg[i] = math.degrees(q_angle(g_rh, t_rot))
 
 
 # --------------------------------------------------------------------------
@@ -376,12 +773,6 @@ class Adapter:
         self.right_parent_in_left = list(left.joints).index(rpar) if rpar in list(left.joints) else -1
         self.hit_point = self.src_gpos[self.hit_frame, self.bat].copy()
         self.bat_positions = self.src_gpos[:, self.bat]
-        self._shot_data = ShotData(self.hit_frame, self.parents, self.trans, self.src_local, self.src_grot,
-                                   self.src_gpos, self.src_euler, np.flatnonzero(self.subtree_l).astype(np.int64),
-                                   self.bat, self.lhand, self.rel_pos, self.rel_rot, self.right_parent_in_left,
-                                   np.ascontiguousarray(left.joints, np.int64),
-                                   np.ascontiguousarray(right.joints, np.int64))
-        self._shot_tuple = tuple(self._shot_data)
 
     @property
     def max_falloff(self) -> float:
@@ -417,14 +808,15 @@ class Adapter:
         return self._blend_cache[1]
 
     def _chain_args(self, settings: AdaptSettings) -> tuple:
-        """The left and right arm chains for the compiled solvers (cached per wrist and solver)."""
         key = (settings.wrist_dof, settings.solver)
         if key not in self._chains:
             out = []
             for name, wd in (("left_arm", settings.wrist_dof), ("right_arm", None)):
                 ch: ChainArrays = chain_arrays(self.rig, name, wd)
                 n = len(ch.joints)
-                out.append(ch.packed(None if settings.solver == "ccd" else 1.0 / default_stiffness(n)))
+                w = ch.polish_weight if settings.solver == "ccd" else 1.0 / default_stiffness(n)
+                out += [ch.joints, ch.offsets, ch.eff_off, ch.free, ch.kind, ch.lo, ch.hi,
+                        np.ascontiguousarray(w, float)]
             self._chains[key] = tuple(out)
         return self._chains[key]
 
@@ -432,14 +824,16 @@ class Adapter:
         check_settings(settings)
         p = check_point(desired, "desired hit point")
         K, J = len(frames), self.parents.shape[0]
-        out = Outputs(np.empty((K, J, 4)), np.empty((K, J, 4)), np.empty((K, J, 3)), np.empty(K),
-                      np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
-        cfg = RunSettings(SOLVERS.index(settings.solver), bool(settings.fix_right_hand), float(settings.tolerance),
-                          int(settings.iterations), DAMPING, ORIENT_TOL)
-        left, right = self._chain_args(settings)
-        _adapt_frames(frames, p, self._blend_for(float(settings.falloff)), self._shot_tuple, tuple(left),
-                      tuple(right), tuple(cfg), tuple(out))
-        return tuple(out), p
+        out = (np.empty((K, J, 4)), np.empty((K, J, 4)), np.empty((K, J, 3)), np.empty(K),
+               np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
+        _adapt_frames(frames, self.hit_frame, p, self._blend_for(float(settings.falloff)), self.parents, self.trans,
+                      self.src_local, self.src_grot, self.src_gpos, self.src_euler,
+                      self.subtree_l, self.subtree_r, self.bat, self.lhand,
+                      *self._chain_args(settings),
+                      self.rel_pos, self.rel_rot, self.right_parent_in_left, bool(settings.fix_right_hand),
+                      SOLVERS.index(settings.solver), float(settings.tolerance), int(settings.iterations),
+                      DAMPING, ORIENT_TOL, *out)
+        return out, p
 
     def adapt(self, desired_hit_point, settings: AdaptSettings | None = None) -> Adaptation:
         """The whole shot adapted so the bat joint is at ``desired_hit_point`` at the hit frame."""

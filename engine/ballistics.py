@@ -11,9 +11,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from . import quat
-from .nb import kernel
 
 BALL_SPEED = 3000.0      # cm/s incoming (108 km/h, a medium-pace delivery)
 GRAVITY = 981.0          # cm/s^2
@@ -75,7 +75,7 @@ def fly(position, velocity, duration: float = 3.0, dt: float = 1 / 120,
     return _sample_pieces(starts, origins, velocities, airborne, float(dt), count, float(radius), GRAVITY)
 
 
-@kernel
+@njit(cache=True)
 def _sample_pieces(starts, origins, velocities, airborne, dt, count, radius, gravity):
     """``count`` samples ``(K,3)`` every ``dt`` s of the pieces from ``_bounces``.
     Compiled: it runs on every solve while the target is dragged."""

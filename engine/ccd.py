@@ -22,35 +22,367 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from .kinematics_nb import KIND_MULTI, KIND_NONE, Chain, Pose, chain_fk, hinge_axis, new_work
-from .nb import kernel
-from .quat_nb import (TINY, between, clamp_angle, cross, dot, from_euler_zyx, other_branch, outside,
-                      pick_branch, q_at, q_put, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub)
-from .solve_nb import POSITION, Damping, lm_solve
+
+KIND_NONE = 0          # no free DOF: never turned
+# 1, 2, 3: a single free Euler column (kind - 1 = column z, y, x)
+KIND_MULTI = 4         # two or three free columns
 
 TOLERANCE = 0.001      # cm
 ITERATIONS = 200
-STALL = 1e-7           # cm per sweep: slower progress than this means "as close as it gets"
-STALL_REL = 0.0        # share of the error a sweep must gain (0: only STALL; CCD may crawl near limits yet arrive)
-# the Newton finish: light fixed damping, a step that does not help ends it, so
-# does one that keeps more than half the error
-POLISH = Damping(0.01, 0.01, 0.01, 0.25, 0.5, 0.0, 0.0)
-POLISH_STEPS = 8
-NO_GOAL = ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+_TINY = 1e-9           # cm: a lever shorter than this cannot move the effector
+_STALL = 1e-7          # cm per sweep: slower progress than this means "as close as it gets"
+_STALL_REL = 0.0       # share of the error a sweep must gain (0: only _STALL; CCD may crawl near limits yet arrive)
 
 
-@kernel
-def ccd_sweep(prot, kind, free, local, euler, src, lo, hi, g_rot, g_pos, handle, tol, eff):
-    """One CCD pass from the joint nearest the effector up to the chain root (the
-    chain's and pose's arrays, not the records: this runs many times per frame).
+# --------------------------------------------------------------------------
+# scalar quaternion / vector helpers on tuples (no allocation inside numba)
+
+@njit(cache=True)
+def qmul(a, b):
+    return (a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+            a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+            a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+            a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0])
+
+
+@njit(cache=True)
+def qconj(q):
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+@njit(cache=True)
+def cross(u, v):
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+@njit(cache=True)
+def dot(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+@njit(cache=True)
+def vsub(u, v):
+    return (u[0] - v[0], u[1] - v[1], u[2] - v[2])
+
+
+@njit(cache=True)
+def vadd(u, v):
+    return (u[0] + v[0], u[1] + v[1], u[2] + v[2])
+
+
+@njit(cache=True)
+def vnorm(u):
+    return math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+
+
+@njit(cache=True)
+def qrot(q, v):
+    """Rotate vector v by unit quaternion q."""
+    u = (q[1], q[2], q[3])
+    t = cross(u, v)
+    t = (2.0 * t[0], 2.0 * t[1], 2.0 * t[2])
+    c = cross(u, t)
+    return (v[0] + q[0] * t[0] + c[0], v[1] + q[0] * t[1] + c[1], v[2] + q[0] * t[2] + c[2])
+
+
+@njit(cache=True)
+def qnormalize(q):
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if n < 1e-300:
+        return (1.0, 0.0, 0.0, 0.0)
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+
+
+@njit(cache=True)
+def axis_angle(axis, angle):
+    """Unit axis (tuple) and angle (rad) -> quaternion."""
+    s = math.sin(0.5 * angle)
+    return (math.cos(0.5 * angle), axis[0] * s, axis[1] * s, axis[2] * s)
+
+
+@njit(cache=True)
+def between(u, v):
+    """Shortest-arc rotation taking direction u onto v (identity if either is ~0)."""
+    nu = vnorm(u)
+    nv = vnorm(v)
+    if nu < _TINY or nv < _TINY:
+        return (1.0, 0.0, 0.0, 0.0)
+    u = (u[0] / nu, u[1] / nu, u[2] / nu)
+    v = (v[0] / nv, v[1] / nv, v[2] / nv)
+    w = 1.0 + dot(u, v)
+    if w < 1e-12:
+        # opposite: 180 degrees about any axis perpendicular to u
+        alt = (1.0, 0.0, 0.0) if abs(u[0]) < 0.9 else (0.0, 1.0, 0.0)
+        p = cross(u, alt)
+        return qnormalize((0.0, p[0], p[1], p[2]))
+    c = cross(u, v)
+    return qnormalize((w, c[0], c[1], c[2]))
+
+
+@njit(cache=True)
+def q_angle(a, b):
+    """Rotation angle (rad) between two unit quaternions."""
+    r = qmul(qconj(a), b)
+    s = math.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
+    return 2.0 * math.atan2(s, abs(r[0]))
+
+
+@njit(cache=True)
+def from_euler_zyx(z, y, x):
+    """R = Rz(z) Ry(y) Rx(x), radians -> quaternion."""
+    cz, sz = math.cos(0.5 * z), math.sin(0.5 * z)
+    cy, sy = math.cos(0.5 * y), math.sin(0.5 * y)
+    cx, sx = math.cos(0.5 * x), math.sin(0.5 * x)
+    # (cz + sz k)(cy + sy j)(cx + sx i)
+    w = cz * cy * cx + sz * sy * sx
+    qx = cz * cy * sx - sz * sy * cx
+    qy = cz * sy * cx + sz * cy * sx
+    qz = sz * cy * cx - cz * sy * sx
+    return (w, qx, qy, qz)
+
+
+@njit(cache=True)
+def to_euler_zyx(q):
+    """Quaternion -> (z, y, x) radians, the same branch as ``quat.to_euler(q, "ZYX")``."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    m00 = 1.0 - 2.0 * (y * y + z * z)
+    m10 = 2.0 * (x * y + w * z)
+    m20 = 2.0 * (x * z - w * y)
+    m21 = 2.0 * (y * z + w * x)
+    m22 = 1.0 - 2.0 * (x * x + y * y)
+    sb = min(1.0, max(-1.0, -m20))
+    b = math.atan2(sb, math.hypot(m22, m21))
+    if abs(sb) > 1.0 - 1e-10:
+        m01 = 2.0 * (x * y - w * z)
+        m11 = 1.0 - 2.0 * (x * x + z * z)
+        return (math.atan2(-m01, m11), b, 0.0)
+    return (math.atan2(m10, m00), b, math.atan2(m21, m22))
+
+
+@njit(cache=True)
+def wrap(a):
+    """Angle into (-pi, pi]."""
+    if -math.pi < a <= math.pi:
+        return a
+    a = (a + math.pi) % (2.0 * math.pi)      # in [0, 2 pi)
+    if a == 0.0:
+        return math.pi
+    return a - math.pi
+
+
+@njit(cache=True)
+def clamp_angle(a, lo, hi):
+    """Clamp an angle to [lo, hi] going to the bound that is nearer on the circle
+    (a turn just past +180 must not jump to the far lower limit)."""
+    if lo <= a <= hi:
+        return a
+    a = wrap(a)
+    if lo <= a <= hi:
+        return a
+    if abs(wrap(lo - a)) < abs(wrap(a - hi)):
+        return lo
+    return hi
+
+
+@njit(cache=True)
+def other_branch(e):
+    """The second Euler triple of the same rotation: (z + pi, pi - y, x + pi)."""
+    return (wrap(e[0] + math.pi), wrap(math.pi - e[1]), wrap(e[2] + math.pi))
+
+
+@njit(cache=True)
+def _outside(a, lo, hi):
+    """How far (rad) angle a lies outside [lo, hi] on the circle (0 inside)."""
+    if lo <= a <= hi:
+        return 0.0
+    return min(abs(wrap(lo - a)), abs(wrap(a - hi)))
+
+
+@njit(cache=True)
+def pick_branch(e, euler, src_euler, free, lo, hi, k):
+    """Of the two Euler triples of one rotation, the one that keeps the locked
+    columns nearest their source values and the free ones inside the limits;
+    on a tie the one nearest the joint's current angles. A ZYX middle angle is
+    only ever in [-90, 90] degrees, so an elbow bent past 90 needs the other
+    branch."""
+    e2 = other_branch(e)
+    s1 = 0.0
+    s2 = 0.0
+    d1 = 0.0
+    d2 = 0.0
+    for c in range(3):
+        if free[k, c]:
+            s1 += _outside(e[c], lo[k, c], hi[k, c])
+            s2 += _outside(e2[c], lo[k, c], hi[k, c])
+        else:
+            s1 += abs(wrap(e[c] - src_euler[k, c]))
+            s2 += abs(wrap(e2[c] - src_euler[k, c]))
+        d1 += abs(wrap(e[c] - euler[k, c]))
+        d2 += abs(wrap(e2[c] - euler[k, c]))
+    if s2 < s1 - 1e-12 or (abs(s2 - s1) <= 1e-12 and d2 < d1):
+        return e2
+    return e
+
+
+@njit(cache=True)
+def _q_at(arr, k):
+    return (arr[k, 0], arr[k, 1], arr[k, 2], arr[k, 3])
+
+
+@njit(cache=True)
+def _v_at(arr, k):
+    return (arr[k, 0], arr[k, 1], arr[k, 2])
+
+
+@njit(cache=True)
+def _q_put(arr, k, q):
+    arr[k, 0] = q[0]
+    arr[k, 1] = q[1]
+    arr[k, 2] = q[2]
+    arr[k, 3] = q[3]
+
+
+@njit(cache=True)
+def _v_put(arr, k, v):
+    arr[k, 0] = v[0]
+    arr[k, 1] = v[1]
+    arr[k, 2] = v[2]
+
+
+@njit(cache=True)
+def chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos):
+    """Globals of the chain joints into g_rot (n,4), g_pos (n,3); returns the effector.
+
+    prot, ppos: global rotation / position of the chain root's parent.
+    """
+    r = prot
+    p = ppos
+    for k in range(offsets.shape[0]):
+        p = vadd(p, qrot(r, _v_at(offsets, k)))
+        r = qmul(r, _q_at(local, k))
+        _q_put(g_rot, k, r)
+        _v_put(g_pos, k, p)
+    return vadd(p, qrot(r, (eff_off[0], eff_off[1], eff_off[2])))
+
+
+@njit(cache=True)
+def hinge_axis(prot, g_rot, euler, k, c):
+    """World axis of Euler column c of chain joint k (turning that column alone
+    rotates the joint's subtree about this axis through the joint)."""
+    gp = prot if k == 0 else _q_at(g_rot, k - 1)
+    if c == 0:
+        return qrot(gp, (0.0, 0.0, 1.0))
+    if c == 1:
+        return qrot(qmul(gp, from_euler_zyx(euler[k, 0], 0.0, 0.0)), (0.0, 1.0, 0.0))
+    return qrot(_q_at(g_rot, k), (1.0, 0.0, 0.0))
+
+
+@njit(cache=True)
+def jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, g_pos,
+                  damping, max_step, cols, dofs):
+    """One damped least-squares step on the free Euler columns, in place:
+    d_theta = W J^T (J W J^T + damping^2 I)^-1 (handle - eff), W = diag(weight).
+
+    Columns that would cross a limit are clamped there and frozen, and the
+    rest re-solved for what is left of the error (up to three rounds).
+    cols (>= 3n, 3), dofs (>= 3n, 2) int64 are scratch."""
+    n = local.shape[0]
+    m = 0
+    for k in range(n):
+        for c in range(3):
+            if free[k, c] and weight[k] > 0.0:
+                a = hinge_axis(prot, g_rot, euler, k, c)
+                col = cross(a, vsub(eff, _v_at(g_pos, k)))
+                cols[m, 0] = col[0] * math.sqrt(weight[k])
+                cols[m, 1] = col[1] * math.sqrt(weight[k])
+                cols[m, 2] = col[2] * math.sqrt(weight[k])
+                dofs[m, 0] = k
+                dofs[m, 1] = c
+                m += 1
+    r = vsub(handle, eff)
+    for _round in range(3):
+        a00 = damping * damping
+        a11 = a00
+        a22 = a00
+        a01 = 0.0
+        a02 = 0.0
+        a12 = 0.0
+        for i in range(m):
+            if dofs[i, 0] < 0:
+                continue
+            x, y, z = cols[i, 0], cols[i, 1], cols[i, 2]
+            a00 += x * x
+            a11 += y * y
+            a22 += z * z
+            a01 += x * y
+            a02 += x * z
+            a12 += y * z
+        # inverse of the symmetric 3x3 by cofactors
+        c00 = a11 * a22 - a12 * a12
+        c01 = a02 * a12 - a01 * a22
+        c02 = a01 * a12 - a02 * a11
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        if not abs(det) > 1e-300:
+            return
+        c11 = a00 * a22 - a02 * a02
+        c12 = a01 * a02 - a00 * a12
+        c22 = a00 * a11 - a01 * a01
+        x0 = (c00 * r[0] + c01 * r[1] + c02 * r[2]) / det
+        x1 = (c01 * r[0] + c11 * r[1] + c12 * r[2]) / det
+        x2 = (c02 * r[0] + c12 * r[1] + c22 * r[2]) / det
+        # cap the largest angle change: the linearisation holds for small turns
+        biggest = 0.0
+        for i in range(m):
+            if dofs[i, 0] < 0:
+                continue
+            k = dofs[i, 0]
+            d = (cols[i, 0] * x0 + cols[i, 1] * x1 + cols[i, 2] * x2) * math.sqrt(weight[k])
+            biggest = max(biggest, abs(d))
+        scale = 1.0 if biggest <= max_step else max_step / biggest
+        clamped = False
+        for i in range(m):
+            if dofs[i, 0] < 0:
+                continue
+            k = dofs[i, 0]
+            c = dofs[i, 1]
+            d = (cols[i, 0] * x0 + cols[i, 1] * x1 + cols[i, 2] * x2) * math.sqrt(weight[k]) * scale
+            want = euler[k, c] + d
+            got = clamp_angle(want, lo[k, c], hi[k, c])
+            if got != want:
+                # take what the limit allows, freeze it, and leave the rest to the others
+                got_d = got - euler[k, c]
+                euler[k, c] = got
+                sw = 1.0 / math.sqrt(weight[k])
+                r = (r[0] - cols[i, 0] * sw * got_d, r[1] - cols[i, 1] * sw * got_d,
+                     r[2] - cols[i, 2] * sw * got_d)
+                dofs[i, 0] = -1
+                clamped = True
+        if not clamped:
+            for i in range(m):
+                if dofs[i, 0] < 0:
+                    continue
+                k = dofs[i, 0]
+                c = dofs[i, 1]
+                euler[k, c] += (cols[i, 0] * x0 + cols[i, 1] * x1 + cols[i, 2] * x2) * math.sqrt(weight[k]) * scale
+            break
+    for k in range(n):
+        if weight[k] > 0.0 and (free[k, 0] or free[k, 1] or free[k, 2]):
+            _q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+
+
+@njit(cache=True)
+def ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle, tol, eff, g_rot, g_pos):
+    """One CCD pass from the joint nearest the effector up to the chain root.
     Globals of joints below a turned one go stale (the caller recomputes them)."""
-    for k in range(kind.shape[0] - 1, -1, -1):
+    n = offsets.shape[0]
+    for k in range(n - 1, -1, -1):
         kd = kind[k]
         if kd == KIND_NONE:
             continue
-        p = (g_pos[k, 0], g_pos[k, 1], g_pos[k, 2])
-        gp = prot if k == 0 else q_at(g_rot, k - 1)
+        p = _v_at(g_pos, k)
+        gp = prot if k == 0 else _q_at(g_rot, k - 1)
         u = vsub(eff, p)
         v = vsub(handle, p)
         if kd < KIND_MULTI:
@@ -60,27 +392,31 @@ def ccd_sweep(prot, kind, free, local, euler, src, lo, hi, g_rot, g_pos, handle,
             dv = dot(v, axis)
             up = (u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])
             vp = (v[0] - dv * axis[0], v[1] - dv * axis[1], v[2] - dv * axis[2])
-            if vnorm(up) < TINY or vnorm(vp) < TINY:
-                continue        # no lever about the axis
+            if vnorm(up) < _TINY or vnorm(vp) < _TINY:
+                continue
             delta = math.atan2(dot(axis, cross(up, vp)), dot(up, vp))
             old = euler[k, c]
             new = clamp_angle(old + delta, lo[k, c], hi[k, c])
             if new == old:
                 continue
             euler[k, c] = new
+            lq = from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
         else:
             qd = between(u, v)
             if qd[0] == 1.0:
                 continue
-            lc = qmul(qconj(gp), qmul(qd, q_at(g_rot, k)))
-            e = pick_branch(to_euler_zyx(lc), euler, src, free, lo, hi, k)
-            for c in range(3):      # free columns clamped to the limits, locked ones back to the source
-                euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c]) if free[k, c] else src[k, c]
-        lq = from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
-        old_g = q_at(g_rot, k)
+            lc = qmul(qconj(gp), qmul(qd, _q_at(g_rot, k)))
+            e = pick_branch(to_euler_zyx(lc), euler, src_euler, free, lo, hi, k)
+            for c in range(3):
+                if free[k, c]:
+                    euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
+                else:
+                    euler[k, c] = src_euler[k, c]
+            lq = from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
+        old_g = _q_at(g_rot, k)
         new_g = qmul(gp, lq)
-        q_put(local, k, lq)
-        q_put(g_rot, k, new_g)
+        _q_put(local, k, lq)
+        _q_put(g_rot, k, new_g)
         # the subtree turns rigidly about the joint by new_g * old_g^-1
         eff = vadd(p, qrot(qmul(new_g, qconj(old_g)), u))
         if vnorm(vsub(eff, handle)) < tol:
@@ -88,60 +424,96 @@ def ccd_sweep(prot, kind, free, local, euler, src, lo, hi, g_rot, g_pos, handle,
     return eff
 
 
-@kernel
-def ccd_frame(prot, ppos, chain, pose, handle, tol, max_iter, w):
-    """Solve one frame in place (``pose.local``, ``pose.euler`` hold the start pose
-    and receive the result). Returns (error cm, iterations).
+@njit(cache=True)
+def polish(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, handle, tol,
+           eff, err, g_rot, g_pos, steps, scratch_cols, scratch_dofs, bak_local, bak_euler):
+    """Newton (lightly damped least-squares) steps from a CCD pose that has
+    stalled near the handle; a step that does not help is undone.
+    Returns (effector, error)."""
+    for _ in range(steps):
+        bak_local[:local.shape[0]] = local
+        bak_euler[:euler.shape[0]] = euler
+        jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, g_pos,
+                      0.01, 0.25, scratch_cols, scratch_dofs)
+        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        err2 = vnorm(vsub(eff2, handle))
+        if not err2 < err:
+            local[:] = bak_local[:local.shape[0]]
+            euler[:] = bak_euler[:euler.shape[0]]
+            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+            break
+        progress = err2 < 0.5 * err
+        eff = eff2
+        err = err2
+        if err < tol or not progress:
+            break
+    return eff, err
+
+
+@njit(cache=True)
+def ccd_frame(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
+              polish_weight, handle, tol, max_iter, g_rot, g_pos, scratch_cols, scratch_dofs,
+              bak_local, bak_euler):
+    """Solve one frame in place. local (n,4) and euler (n,3, radians) hold the
+    start pose and receive the result. Returns (error cm, iterations).
 
     CCD converges fast far from the handle and slowly near it (each joint only
     swings the effector onto its own joint-handle line, so the reach distance
     is fixed up a little per sweep). When a sweep gains less than half, Newton
-    steps weighted by ``chain.weight`` finish the last centimetres (all-zero
-    weights: pure CCD)."""
-    kind, free, weight = chain.kind, chain.free, chain.weight
-    local, euler, src, lo, hi = pose.local, pose.euler, pose.src, pose.lo, pose.hi
-    g_rot, g_pos = w.g_rot, w.g_pos
-    eff = chain_fk(prot, ppos, chain, local, g_rot, g_pos)
+    steps weighted by ``polish_weight (n,)`` finish the last centimetres
+    (all-zero weights: pure CCD)."""
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
     err = vnorm(vsub(eff, handle))
     if not err >= tol:          # also stops on a NaN handle (pose stays the source)
         return err, 0
     do_polish = False
-    for k in range(weight.shape[0]):
-        if weight[k] > 0.0:
+    for k in range(offsets.shape[0]):
+        if polish_weight[k] > 0.0:
             do_polish = True
-    goal = (handle, NO_GOAL[1], NO_GOAL[2])
     it = 0
     while it < max_iter:
         it += 1
         start_err = err
-        ccd_sweep(prot, kind, free, local, euler, src, lo, hi, g_rot, g_pos, handle, tol, eff)
-        eff = chain_fk(prot, ppos, chain, local, g_rot, g_pos)
+        eff = ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle, tol,
+                        eff, g_rot, g_pos)
+        eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
         err = vnorm(vsub(eff, handle))
         if err < tol:
             break
         if do_polish and err > 0.5 * start_err:
-            eff, err, _ = lm_solve(POSITION, prot, ppos, chain, pose, chain, pose, 0, goal, tol, 0.0,
-                                   POLISH, np.int64(POLISH_STEPS), w)
+            eff, err = polish(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, polish_weight,
+                              handle, tol, eff, err, g_rot, g_pos, 8, scratch_cols, scratch_dofs,
+                              bak_local, bak_euler)
             if err < tol:
                 break
-        if start_err - err < max(STALL, STALL_REL * err):
+        if start_err - err < max(_STALL, _STALL_REL * err):
             break       # as close as this pose gets (unreachable, or held by limits)
     return err, it
 
 
-@kernel
-def ccd_batch(prot, ppos, chain_fields, local, euler, src_euler, handles, tol, max_iter, out_err, out_iter):
-    """Every frame f of local (F,n,4) / euler (F,n,3) solved in place. ``chain_fields``:
-    a :class:`Chain`'s fields as a plain tuple (numba types those in C, a
-    namedtuple argument in Python at some microseconds a call)."""
-    chain = Chain(*chain_fields)
-    w = new_work(chain.order.shape[0])
+@njit(cache=True)
+def chain_scratch(n):
+    """Work buffers for solving one chain of up to ``n`` joints, allocated once
+    per batch: (g_rot (n,4), g_pos (n,3), cols (3n,3), dofs (3n,2), bak_l (n,4), bak_e (n,3))."""
+    return (np.empty((n, 4)), np.empty((n, 3)), np.empty((3 * n, 3)), np.empty((3 * n, 2), np.int64),
+            np.empty((n, 4)), np.empty((n, 3)))
+
+
+@njit(cache=True)
+def ccd_batch(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
+              polish_weight, handles, tol, max_iter, out_err, out_iter):
+    """Every frame f of local (F,n,4) / euler (F,n,3) solved in place."""
+    n = offsets.shape[0]
+    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
     for f in range(local.shape[0]):
-        pose = Pose(local[f], euler[f], src_euler[f], chain.lo, chain.hi)
-        e, i = ccd_frame(q_at(prot, f), (ppos[f, 0], ppos[f, 1], ppos[f, 2]), chain, pose,
-                         (handles[f, 0], handles[f, 1], handles[f, 2]), tol, max_iter, w)
+        pr = (prot[f, 0], prot[f, 1], prot[f, 2], prot[f, 3])
+        pp = (ppos[f, 0], ppos[f, 1], ppos[f, 2])
+        h = (handles[f, 0], handles[f, 1], handles[f, 2])
+        e, i = ccd_frame(pr, pp, offsets, eff_off, local[f], euler[f], src_euler[f], free, kind,
+                         lo, hi, polish_weight, h, tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
         out_err[f] = e
         out_iter[f] = i
+
 
 # --------------------------------------------------------------------------
 # Python side: chain data from the rig, and a batched solve
@@ -159,17 +531,6 @@ class ChainArrays:
     hi: np.ndarray          # (n,3) radians
     parent: int             # parent joint of the chain root
     polish_weight: np.ndarray = None  # (n,) weights of the Newton finish (0: pure CCD)
-
-    def packed(self, weight=None) -> Chain:
-        """The compiled solvers' :class:`engine.kinematics_nb.Chain` (``weight``
-        default: the Newton finish's)."""
-        n = len(self.joints)
-        w = self.polish_weight if weight is None else weight
-        return Chain(np.ascontiguousarray(self.offsets, float), np.ascontiguousarray(self.eff_off, float),
-                     np.arange(n, dtype=np.int64) - 1, np.arange(n, dtype=np.int64),
-                     np.ascontiguousarray(self.free), np.ascontiguousarray(self.kind, np.int64),
-                     np.ascontiguousarray(self.lo, float), np.ascontiguousarray(self.hi, float),
-                     np.ascontiguousarray(w, float))
 
 
 def chain_arrays(rig, name: str, wrist_dof: int | None = None) -> ChainArrays:
@@ -207,7 +568,7 @@ def _outside_np(a, lo, hi):
     return np.where((a >= lo) & (a <= hi), 0.0, np.minimum(d_lo, d_hi))
 
 
-@kernel
+@njit(cache=True)
 def _limit_euler_nb(local, lo, hi, out):
     """local (M,J,4), lo/hi (J,3) radians -> out (M,J,3) radians, best branch."""
     for i in range(local.shape[0]):
@@ -217,8 +578,8 @@ def _limit_euler_nb(local, lo, hi, out):
             s1 = 0.0
             s2 = 0.0
             for c in range(3):
-                s1 += outside(e1[c], lo[j, c], hi[j, c])
-                s2 += outside(e2[c], lo[j, c], hi[j, c])
+                s1 += _outside(e1[c], lo[j, c], hi[j, c])
+                s2 += _outside(e2[c], lo[j, c], hi[j, c])
             e = e2 if s2 < s1 - 1e-11 else e1
             out[i, j, 0] = e[0]
             out[i, j, 1] = e[1]
@@ -279,7 +640,7 @@ def solve(chain: ChainArrays, parent_rotations, parent_positions, local_rotation
     euler = src.copy()
     err = np.empty(F)
     its = np.empty(F, np.int64)
-    packed = chain.packed(np.zeros(len(chain.joints)) if pure else None)
     ccd_batch(np.ascontiguousarray(parent_rotations, float), np.ascontiguousarray(parent_positions, float),
-              tuple(packed), local, euler, src, handles, float(tolerance), int(iterations), err, its)
+              chain.offsets, chain.eff_off, local, euler, src, chain.free, chain.kind, chain.lo, chain.hi,
+              np.zeros(len(chain.joints)) if pure else chain.polish_weight, handles, float(tolerance), int(iterations), err, its)
     return local, err, its

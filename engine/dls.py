@@ -8,12 +8,10 @@ with limits enforced by clamping and freezing the clamped columns.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-from .ccd import ITERATIONS, STALL, STALL_REL, TOLERANCE, ChainArrays, NO_GOAL, _check_handles, limit_euler
-from .kinematics_nb import Chain, Pose, new_work
-from .nb import kernel
-from .quat_nb import q_at
-from .solve_nb import POSITION, Damping, lm_solve
+from .ccd import (ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, chain_fk, chain_scratch,
+                  jacobian_step, limit_euler, vnorm, vsub)
 
 DAMPING = 1.0           # cm
 MAX_STEP = 0.25         # rad per iteration and DOF
@@ -25,30 +23,54 @@ def default_stiffness(n: int) -> np.ndarray:
     return np.linspace(3.0, 1.0, n)
 
 
-@kernel
-def schedule(damping):
-    """Damping from ``damping`` up (x4 after a step that did not help) until 1e4 times it."""
-    return Damping(damping, damping, 1e4 * (damping + 1.0), MAX_STEP, 0.0, STALL, STALL_REL)
-
-
-@kernel
-def dls_frame(prot, ppos, chain, pose, handle, tol, max_iter, damping, w):
-    """Solve one frame in place (weights ``chain.weight`` = 1 / stiffness).
-    Returns (error cm, iterations)."""
-    _, err, it = lm_solve(POSITION, prot, ppos, chain, pose, chain, pose, 0, (handle, NO_GOAL[1], NO_GOAL[2]),
-                          tol, 0.0, schedule(damping), max_iter, w)
+@njit(cache=True)
+def dls_frame(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, damping, handle,
+              tol, max_iter, g_rot, g_pos, scratch_cols, scratch_dofs, bak_local, bak_euler):
+    """Solve one frame in place (local (n,4), euler (n,3) radians).
+    weight (n,) = 1 / stiffness. Returns (error cm, iterations)."""
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    err = vnorm(vsub(eff, handle))
+    if not err >= tol:
+        return err, 0
+    lam = damping
+    it = 0
+    while it < max_iter:
+        it += 1
+        bak_local[:local.shape[0]] = local
+        bak_euler[:euler.shape[0]] = euler
+        jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, g_pos,
+                      lam, MAX_STEP, scratch_cols, scratch_dofs)
+        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        err2 = vnorm(vsub(eff2, handle))
+        if not err2 < err:
+            # overshoot (or a limit in the way): undo and damp harder
+            local[:] = bak_local[:local.shape[0]]
+            euler[:] = bak_euler[:euler.shape[0]]
+            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+            lam *= 4.0
+            if lam > 1e4 * (damping + 1.0):
+                break
+            continue
+        gain = err - err2
+        eff = eff2
+        err = err2
+        lam = max(damping, lam * 0.5)
+        if err < tol or gain < max(_STALL, _STALL_REL * err):
+            break
     return err, it
 
 
-@kernel
-def dls_batch(prot, ppos, chain_fields, local, euler, handles, tol, max_iter, damping, out_err, out_iter):
-    """Every frame solved in place; ``chain_fields`` as :func:`engine.ccd.ccd_batch`'s."""
-    chain = Chain(*chain_fields)
-    w = new_work(chain.order.shape[0])
+@njit(cache=True)
+def dls_batch(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, damping,
+              handles, tol, max_iter, out_err, out_iter):
+    n = offsets.shape[0]
+    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
     for f in range(local.shape[0]):
-        pose = Pose(local[f], euler[f], euler[f], chain.lo, chain.hi)
-        e, i = dls_frame(q_at(prot, f), (ppos[f, 0], ppos[f, 1], ppos[f, 2]), chain, pose,
-                         (handles[f, 0], handles[f, 1], handles[f, 2]), tol, max_iter, damping, w)
+        pr = (prot[f, 0], prot[f, 1], prot[f, 2], prot[f, 3])
+        pp = (ppos[f, 0], ppos[f, 1], ppos[f, 2])
+        h = (handles[f, 0], handles[f, 1], handles[f, 2])
+        e, i = dls_frame(pr, pp, offsets, eff_off, local[f], euler[f], free, lo, hi, weight, damping,
+                         h, tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
         out_err[f] = e
         out_iter[f] = i
 
@@ -67,6 +89,6 @@ def solve(chain: ChainArrays, parent_rotations, parent_positions, local_rotation
     err = np.empty(F)
     its = np.empty(F, np.int64)
     dls_batch(np.ascontiguousarray(parent_rotations, float), np.ascontiguousarray(parent_positions, float),
-              tuple(chain.packed(1.0 / stiff)), local, euler, handles, float(tolerance), int(iterations),
-              float(damping), err, its)
+              chain.offsets, chain.eff_off, local, euler, chain.free, chain.lo, chain.hi,
+              1.0 / stiff, float(damping), handles, float(tolerance), int(iterations), err, its)
     return local, err, its

@@ -14,9 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from . import quat
-from .nb import kernel
 
 # A parameter whose SD is below this is treated as constant (D = 1), so it
 # standardises to exactly 0 instead of to noise / 0.
@@ -143,7 +143,7 @@ class ShotPCA:
         return self.mean[start:].reshape(-1, 4)
 
 
-@kernel
+@njit(cache=True)
 def _pose_kernel(scores, ld_t, mean, joints, base_rotations, base_root, include_root, root_out, rot_out):
     """P = S (L*D)^T + M per row of ``scores (N, k)``, quaternions renormalised,
     written into ``root_out (N, 3)`` and ``rot_out (N, J, 4)``."""

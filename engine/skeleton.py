@@ -112,30 +112,27 @@ def forward_kinematics(parents: np.ndarray, local_translations: np.ndarray,
     return g_rot, g_pos
 
 
-def compiled_fk(parents: np.ndarray, local_translations: np.ndarray,
-                local_rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`forward_kinematics` by its compiled twin (:func:`engine.kinematics_nb.fk_frames`):
-    the same floats, far less time on small arrays. Both inputs ``(..., J, ...)``
-    broadcast over their leading axes."""
-    from .kinematics_nb import fk_frames
-    J = len(parents)
-    lead = np.broadcast_shapes(local_translations.shape[:-2], local_rotations.shape[:-2])
-    t = np.ascontiguousarray(np.broadcast_to(local_translations, lead + (J, 3)), float).reshape(-1, J, 3)
-    q = np.ascontiguousarray(np.broadcast_to(local_rotations, lead + (J, 4)), float).reshape(-1, J, 4)
-    g_rot, g_pos = np.empty(q.shape), np.empty(t.shape)
-    fk_frames(np.asarray(parents, np.int64), t, q, np.arange(J, dtype=np.int64), g_rot, g_pos)
-    return g_rot.reshape(lead + (J, 4)), g_pos.reshape(lead + (J, 3))
-
-
 def pose_fk(skeleton: Skeleton, root_positions: np.ndarray, local_rotations: np.ndarray,
-            compiled: bool = False) -> tuple[np.ndarray, np.ndarray]:
+            one_pose: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """FK of poses ``root_positions (..., 3)``, ``local_rotations (..., J, 4)`` on the
-    skeleton's offsets (``compiled``: by the compiled twin, for single poses)."""
+    skeleton's offsets. ``one_pose``: a single pose ``(3,)``, ``(J, 4)`` by 3x3
+    matrices, far cheaper than quaternion ops on tiny arrays (the PC pad's marker
+    moves every frame)."""
     root = np.asarray(root_positions, float)
-    t = np.broadcast_to(skeleton.offsets, root.shape[:-1] + skeleton.offsets.shape).copy()
-    t[..., 0, :] = root
-    fk = compiled_fk if compiled else forward_kinematics
-    return fk(skeleton.parents, t, local_rotations)
+    if not one_pose:
+        t = np.broadcast_to(skeleton.offsets, root.shape[:-1] + skeleton.offsets.shape).copy()
+        t[..., 0, :] = root
+        return forward_kinematics(skeleton.parents, t, local_rotations)
+    R = quat.to_matrix(local_rotations)
+    G = np.empty_like(R)
+    P = np.empty((skeleton.num_joints, 3))
+    for j, p in enumerate(skeleton.parents):
+        if p < 0:
+            G[j], P[j] = R[j], root
+        else:
+            G[j] = G[p] @ R[j]
+            P[j] = P[p] + G[p] @ skeleton.offsets[j]
+    return quat.from_matrix(G), P
 
 
 def clip_fk(skeleton: Skeleton, clip: Clip) -> tuple[np.ndarray, np.ndarray]:

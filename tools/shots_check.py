@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 
 from engine import quat
-from engine.cleanup import planted_runs  # the one planted-foot detector
 
 
 def _outside(a, lo, hi):
@@ -78,6 +77,27 @@ def right_in_left(rig, global_rotations, global_positions):
     inv = quat.conjugate(global_rotations[:, lh])
     pos = quat.rotate(inv, global_positions[:, rh] - global_positions[:, lh])
     return pos, quat.mul(inv, global_rotations[:, rh])
+
+
+def planted_runs(positions: np.ndarray, fps: float, height_tol: float = 0.5,
+                 speed_tol: float = 6.0) -> list[tuple[int, int]]:
+    """Runs of frames ``[a, b)`` where a foot joint ``(F, 3)`` is down and still.
+
+    Down: within ``height_tol`` cm of its lowest height in the clip; still:
+    speed below ``speed_tol`` cm/s (central differences).
+    """
+    y = positions[:, 1]
+    v = np.linalg.norm(np.gradient(positions, axis=0), axis=-1) * fps
+    down = (y <= y.min() + height_tol) & (v < speed_tol)
+    runs, a = [], None
+    for f, d in enumerate(list(down) + [False]):
+        if d and a is None:
+            a = f
+        elif not d and a is not None:
+            if f - a >= 3:
+                runs.append((a, f))
+            a = None
+    return runs
 
 
 def foot_drift(positions: np.ndarray, fps: float) -> float:

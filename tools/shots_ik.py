@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from engine import quat
-from engine.skeleton import pose_fk
+from engine.skeleton import forward_kinematics
 
 
 # ----------------------------------------------------------------- small maths
@@ -117,7 +117,10 @@ class PoseSolver:
 
     def fk(self, root_pos: np.ndarray, local_m: np.ndarray):
         """Global rotation matrices and positions from local matrices ``(F, J, 3, 3)``."""
-        g_rot, g_pos = pose_fk(self.sk, root_pos, to_q(local_m))
+        F = root_pos.shape[0]
+        t = np.broadcast_to(self.off, (F,) + self.off.shape).copy()
+        t[:, 0] = root_pos
+        g_rot, g_pos = forward_kinematics(self.sk.parents, t, to_q(local_m))
         return quat.to_matrix(g_rot), g_pos
 
     def hand_targets(self, grip: np.ndarray, bat_rot: np.ndarray):
