@@ -55,8 +55,21 @@ def valid_entry(e) -> bool:
             and ("description" not in e or text(e["description"], library.MAX_DESCRIPTION, True)))
 
 
+def finite_json(v) -> bool:
+    """No NaN or Infinity anywhere (plain JSON has neither; the loader refuses them)."""
+    if isinstance(v, float):
+        return math.isfinite(v)
+    if isinstance(v, dict):
+        return all(finite_json(x) for x in v.values())
+    if isinstance(v, list):
+        return all(finite_json(x) for x in v)
+    return True
+
+
 def valid(manifest) -> bool:
     if not isinstance(manifest, list) or not 1 <= len(manifest) <= library.MAX_SHOTS:
+        return False
+    if not finite_json(manifest):
         return False
     names = [e.get("name") for e in manifest if isinstance(e, dict)]
     return all(valid_entry(e) for e in manifest) and len(set(names)) == len(manifest)
