@@ -64,9 +64,25 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         "max_grip_error_cm": round(float(a.grip_error_cm.max()), 4),
         "max_grip_error_deg": round(float(a.grip_error_deg.max()), 4),
         "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
+        **hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START, a.desired_hit_point),
         "solve_ms": round(solve_ms, 3),
         "out": None if out is None else str(out),
     }
+
+
+def hit_summary(rig, shot, global_rotations, global_positions, ball_start, hit_point) -> dict:
+    """The face and the ball at the hit frame of a (adapted) shot: ``face_angle_deg``
+    (vs the source's face), ``face_to_ball`` (cosine), ``contact`` (face|edge|back),
+    ``ball_azimuth_deg`` and ``ball_elevation_deg`` of the ball just after the impact."""
+    from engine import ballistics, face  # numba (ballistics' flight kernel): when the command runs
+
+    h, bat = shot.hit_frame, rig.bat_joint
+    fl = ballistics.flight(global_rotations, global_positions, bat, rig.bat["face_normal"], h,
+                           shot.clip.fps, ball_start, hit_point, rig.bat.get("axis"), duration=0.0)
+    angle = face.face_angle_deg(np.asarray(global_rotations)[h], shot.fk[0][h], bat, rig.bat["face_normal"])
+    return {"face_angle_deg": round(float(angle), 3), "face_to_ball": round(fl.face_to_ball, 4),
+            "contact": fl.contact, "ball_azimuth_deg": round(fl.azimuth_deg, 2),
+            "ball_elevation_deg": round(fl.elevation_deg, 2)}
 
 
 OUT_EXTENSIONS = (".bvh", ".csv", ".glb", ".gltf")
@@ -161,6 +177,10 @@ def register(cli: typer.Typer) -> None:
           --out FILE          write the adapted shot (atomic): .bvh, .csv, .glb
                               or .gltf (skinned batsman + animation, metres)
         JSON keys: shot, hit_frame, source_hit_point, desired_hit_point,
-        bat_error_cm, blend (per frame), grip_error_cm, grip_error_deg, solve_ms, ...
+        bat_error_cm, blend (per frame), grip_error_cm, grip_error_deg,
+        face_angle_deg (bat face at the hit frame vs the source's), face_to_ball
+        (cosine of the face normal and the direction toward the incoming ball),
+        contact (face|edge|back), ball_azimuth_deg (0 straight back past the
+        bowler, + toward the off side), ball_elevation_deg, solve_ms, ...
         """
         print(json.dumps(run_adapt(**parse_args(list(ctx.args)))))

@@ -5,15 +5,21 @@ point exactly at the hit frame (2.5.1). After (2.3.2, done better): the ball
 leaves the bat by a collision with the bat face — face normal, the incoming
 velocity and the bat's own velocity at impact (finite difference of the Bat
 joint) — then flies under gravity and bounces on the ground with restitution.
+
+The ball meets the surface that is really there (no silent flip): the face
+when the face looks at the incoming ball (engine.face.face_to_ball >= EDGE_COS),
+the back of the bat when it looks away, the rounded edge in between; the
+:class:`Flight` says which (``contact``).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from . import quat
+from . import face, quat
 
 BALL_SPEED = 3000.0      # cm/s incoming (108 km/h, a medium-pace delivery)
 GRAVITY = 981.0          # cm/s^2
@@ -47,20 +53,41 @@ def incoming_ball(ball_start, desired_hit_point, hit_frame: int, frame, fps: flo
     return s + (travelled / length)[..., None] * d if np.ndim(t) else s + travelled / length * d
 
 
-def outgoing_velocity(face_normal, ball_velocity, bat_velocity,
+def outgoing_velocity(normal, ball_velocity, bat_velocity,
                       e_bat: float = RESTITUTION_BAT, tangent_keep: float = TANGENT_KEEP) -> np.ndarray:
     """Ball velocity after the impact (cm/s), in the bat's rest frame a
-    collision with a heavy plane: the normal part reverses with restitution,
-    the tangential part is kept in part."""
-    n = np.asarray(face_normal, float)
+    collision with a heavy surface of outward ``normal`` (the face, the back or
+    the edge the ball meets): the normal part reverses with restitution, the
+    tangential part is kept in part. A ball that does not approach the surface
+    (the bat runs away from it) keeps its velocity: there is no collision."""
+    n = np.asarray(normal, float)
     n = n / np.linalg.norm(n)
     rel = np.asarray(ball_velocity, float) - np.asarray(bat_velocity, float)
     vn = float(rel @ n)
-    if vn > 0:          # ball already moving away from the face: hit the other side
-        n = -n
-        vn = -vn
+    if vn >= 0:
+        return np.asarray(ball_velocity, float).copy()
     rel_t = rel - vn * n
     return np.asarray(bat_velocity, float) + tangent_keep * rel_t - e_bat * vn * n
+
+
+def contact_normal(face_n, toward, kind: str, bat_axis=None) -> np.ndarray:
+    """Outward normal of the surface the ball meets: the face normal, its
+    opposite for the back, and for the edge the rounded edge's normal facing the
+    ball (``toward`` without its part along the bat's axis; ``toward`` itself
+    when the axis is not given)."""
+    n = np.asarray(face_n, float)
+    if kind == "face":
+        return n
+    if kind == "back":
+        return -n
+    t = np.asarray(toward, float)
+    if bat_axis is not None:
+        a = np.asarray(bat_axis, float)
+        a = a / np.linalg.norm(a)
+        e = t - (t @ a) * a
+        if np.linalg.norm(e) > 1e-9:
+            t = e
+    return t / np.linalg.norm(t)
 
 
 def fly(position, velocity, duration: float = 3.0, dt: float = 1 / 120,
@@ -124,22 +151,64 @@ def _bounces(position, velocity, duration, e_ground, friction, radius):
     return np.array(starts), np.array(origins), np.array(velocities), np.array(airborne)
 
 
-def ball_after_impact(global_rotations, global_positions, bat_joint: int, hand_joint: int,
-                      face_normal_local, hit_frame: int, fps: float, ball_start, hit_point,
-                      speed: float = BALL_SPEED, duration: float = 3.0) -> np.ndarray:
-    """Trajectory ``(K,3)`` of the ball after the hit.
+@dataclass
+class Flight:
+    """The ball after the hit."""
+    path: np.ndarray          # (K,3) polyline, every 1/120 s
+    velocity: np.ndarray      # (3,) cm/s just after the impact
+    contact: str              # "face" | "edge" | "back": what the ball met
+    face_to_ball: float       # cosine between the face normal and the direction toward the ball
+    face_normal: np.ndarray   # (3,) world face normal at the hit frame
+    bat_velocity: np.ndarray  # (3,) cm/s, central difference of the bat joint
+    azimuth_deg: float        # of ``velocity``, DESIGN.md's convention
+    elevation_deg: float
 
-    global_rotations (F,J,4), global_positions (F,J,3): the (adapted) shot;
-    the face normal is ``face_normal_local`` in the hand joint's frame; the
-    bat's velocity is the central difference of the bat joint at the hit frame.
-    """
+
+def bat_velocity(global_positions, joint: int, frame: int, fps: float) -> np.ndarray:
+    """Velocity (cm/s) of ``joint`` at ``frame``: central difference (one-sided at the ends)."""
+    F = global_positions.shape[0]
+    a, b = max(frame - 1, 0), min(frame + 1, F - 1)
+    return (global_positions[b, joint] - global_positions[a, joint]) * fps / max(b - a, 1)
+
+
+def impact(normal, ball_start, hit_point, bat_v, bat_axis=None, speed: float = BALL_SPEED,
+           edge_cos: float = face.EDGE_COS) -> tuple[np.ndarray, str, float]:
+    """(velocity after the impact (3,), contact, face_to_ball) for a ball from
+    ``ball_start`` meeting a bat of world face ``normal`` at ``hit_point``."""
     s = _finite(ball_start, "ball start")
     p = _finite(hit_point, "hit point")
-    F = global_positions.shape[0]
-    a, b = max(hit_frame - 1, 0), min(hit_frame + 1, F - 1)
-    bat_v = (global_positions[b, bat_joint] - global_positions[a, bat_joint]) * fps / max(b - a, 1)
-    n = quat.rotate(global_rotations[hit_frame, hand_joint], np.asarray(face_normal_local, float))
-    d = p - s
-    ball_v = speed * d / max(np.linalg.norm(d), 1e-9)
-    v = outgoing_velocity(n, ball_v, bat_v)
-    return fly(p, v, duration)
+    toward = face.toward_ball(s, p)
+    cos = float(face.face_to_ball(normal, s, p))
+    kind = face.contact(cos, edge_cos)
+    ball_v = -speed * toward
+    v = outgoing_velocity(contact_normal(normal, toward, kind, bat_axis), ball_v, bat_v)
+    return v, kind, cos
+
+
+def flight(global_rotations, global_positions, bat_joint: int, face_normal_local, hit_frame: int,
+           fps: float, ball_start, hit_point, bat_axis_local=None, speed: float = BALL_SPEED,
+           duration: float = 3.0) -> Flight:
+    """The ball after the hit of a shot ``(F,J,4)``, ``(F,J,3)``: the face normal
+    is ``face_normal_local`` and the bat's axis ``bat_axis_local`` in the bat
+    joint's frame; the bat's velocity the central difference of the bat joint."""
+    grot = np.asarray(global_rotations, float)
+    n = face.face_normal(grot[hit_frame], bat_joint, face_normal_local)
+    axis = None if bat_axis_local is None else quat.rotate(grot[hit_frame, bat_joint],
+                                                           np.asarray(bat_axis_local, float))
+    bat_v = bat_velocity(np.asarray(global_positions, float), bat_joint, hit_frame, fps)
+    v, kind, cos = impact(n, ball_start, hit_point, bat_v, axis, speed)
+    p = _finite(hit_point, "hit point")
+    return Flight(fly(p, v, duration), v, kind, cos, n, bat_v,
+                  float(face.azimuth_deg(v)), float(face.elevation_deg(v)))
+
+
+def ball_after_impact(global_rotations, global_positions, bat_joint: int, hand_joint: int,
+                      face_normal_local, hit_frame: int, fps: float, ball_start, hit_point,
+                      speed: float = BALL_SPEED, duration: float = 3.0, bat_axis_local=None) -> np.ndarray:
+    """Trajectory ``(K,3)`` of the ball after the hit (:func:`flight`'s path).
+
+    The face normal is ``face_normal_local`` in the bat joint's frame (the bat
+    is a fixed child of ``hand_joint``, kept for the callers)."""
+    del hand_joint
+    return flight(global_rotations, global_positions, bat_joint, face_normal_local, hit_frame, fps,
+                  ball_start, hit_point, bat_axis_local, speed, duration).path

@@ -1,0 +1,168 @@
+"""The bat face and the ball's direction (engine/face.py, engine/ballistics.py's
+contact), `hitpoint adapt`'s face/direction JSON fields and `hitpoint analyse
+--directions` (issue 14, items 4-6)."""
+import json
+import numpy as np
+import pytest
+
+from engine import ballistics, bvh, choice, face, quat
+from engine.library import load_library
+
+FACE_KEYS = ("face_angle_deg", "face_to_ball", "contact", "ball_azimuth_deg", "ball_elevation_deg")
+
+
+@pytest.fixture(scope="module")
+def library(rig):
+    return load_library(rig=rig)
+
+
+# ------------------------------------------------------------ conventions
+
+@pytest.mark.parametrize("direction, azimuth", [
+    ((0, 0, 1), 0.0),                                               # straight back past the bowler
+    ((-1, 0, 0), 90.0),                                             # point (off side, -X)
+    ((1, 0, 0), -90.0),                                             # square leg
+    ((-np.sin(np.radians(60)), 0, np.cos(np.radians(60))), 60.0),   # cover
+    ((np.sin(np.radians(140)), 0, np.cos(np.radians(140))), -140.0),  # fine leg
+])
+def test_azimuth_follows_design_md(direction, azimuth):
+    assert face.azimuth_deg(np.array(direction, float)) == pytest.approx(azimuth, abs=1e-9)
+
+
+def test_azimuth_and_elevation_are_vectorised():
+    v = np.array([[[-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]]])
+    assert np.allclose(face.azimuth_deg(v), [[90.0, 0.0]])
+    assert np.allclose(face.elevation_deg(v), [[45.0, -45.0]])
+    assert np.allclose(face.wrap_deg([190.0, -190.0, 180.0, 10.0]), [-170.0, 170.0, 180.0, 10.0])
+
+
+def test_face_angle_between_two_rotations(rig):
+    J, bat = rig.skeleton.num_joints, rig.bat_joint
+    a = quat.identity((4, J))
+    b = a.copy()
+    twist = quat.from_axis_angle(np.array(rig.bat["axis"], float), np.radians([0.0, 30.0, 90.0, 180.0]))
+    b[:, bat] = twist
+    assert np.allclose(face.face_angle_deg(a, b, bat, rig.bat["face_normal"]), [0.0, 30.0, 90.0, 180.0], atol=1e-6)
+    n = face.face_normal(b, bat, rig.bat["face_normal"])
+    assert n.shape == (4, 3) and np.allclose(np.linalg.norm(n, axis=-1), 1.0)
+
+
+def test_contact_from_the_cosine():
+    assert face.contact(1.0) == "face" and face.contact(-0.9) == "back" and face.contact(0.05) == "edge"
+    assert face.contact(face.EDGE_COS) == "face" and face.contact(-face.EDGE_COS) == "back"
+    assert list(face.contact([0.5, 0.0, -0.5])) == ["face", "edge", "back"]
+
+
+# ------------------------------------------------------------ the impact
+
+def test_a_face_pointing_to_the_off_side_sends_the_ball_to_point():
+    """A still bat whose face points -X, the ball coming from the off side: it goes
+    back to the off side, azimuth +90, level; contact face."""
+    hit = np.array([0.0, 80.0, 100.0])
+    start = hit + np.array([-1500.0, 0.0, 0.0])
+    v, kind, cos = ballistics.impact([-1.0, 0.0, 0.0], start, hit, np.zeros(3))
+    assert kind == "face" and cos == pytest.approx(1.0)
+    assert face.azimuth_deg(v) == pytest.approx(90.0) and face.elevation_deg(v) == pytest.approx(0.0)
+
+
+def test_the_back_of_the_bat_is_reported_not_flipped():
+    hit = np.array([0.0, 80.0, 100.0])
+    start = hit + np.array([-1500.0, 0.0, 0.0])
+    v, kind, cos = ballistics.impact([1.0, 0.0, 0.0], start, hit, np.zeros(3))   # face turned away
+    assert kind == "back" and cos == pytest.approx(-1.0)
+    assert face.azimuth_deg(v) == pytest.approx(90.0)          # off the back, still a real collision
+    # the plain collision does not flip a normal the ball does not approach
+    assert np.allclose(ballistics.outgoing_velocity([0, 0, -1], [0, 0, -1000], [0, 0, 0]), [0, 0, -1000])
+
+
+def test_an_edge_deflects_off_the_rounded_edge():
+    hit = np.array([0.0, 80.0, 100.0])
+    start = hit + np.array([0.0, 0.0, 1500.0])                 # ball along the face plane
+    v, kind, cos = ballistics.impact([-1.0, 0.0, 0.0], start, hit, np.zeros(3), bat_axis=[0.0, -1.0, 0.0])
+    assert kind == "edge" and abs(cos) < 1e-9
+    assert v[2] > 0 and np.isfinite(v).all()                    # back toward the bowler off the edge
+
+
+def test_flight_reports_what_the_ball_meets(rig, library):
+    for s in library:
+        grot, gpos = s.fk
+        fl = ballistics.flight(grot, gpos, rig.bat_joint, rig.bat["face_normal"], s.hit_frame, s.clip.fps,
+                               choice.BALL_START, s.hit_point, rig.bat["axis"])
+        assert fl.contact == face.contact(fl.face_to_ball)
+        assert np.allclose(fl.path[0], s.hit_point) and np.all(fl.path[:, 1] >= 3.6 - 1e-9)
+        old = ballistics.ball_after_impact(grot, gpos, rig.bat_joint, rig.wrist, rig.bat["face_normal"],
+                                           s.hit_frame, s.clip.fps, choice.BALL_START, s.hit_point,
+                                           bat_axis_local=rig.bat["axis"])
+        assert np.allclose(old, fl.path)
+
+
+# ------------------------------------------------------------ adapt's JSON
+
+def _cli(*args):
+    from typer.testing import CliRunner
+    from app.cli import cli
+    r = CliRunner().invoke(cli, [str(a) for a in args])
+    assert r.exit_code == 0, r.stderr
+    return r.stdout
+
+
+def _adapt_json(*args):
+    return json.loads(_cli("adapt", *args))
+
+
+def test_source_at_its_own_hit_point_has_face_angle_zero(library):
+    from app.cmd_adapt import run_adapt
+    for s in library[:3]:
+        d = run_adapt(shot_name=s.name, hit=list(s.hit_point))
+        assert d["face_angle_deg"] < 1e-3
+        assert d["contact"] in face.CONTACTS and -1.0 <= d["face_to_ball"] <= 1.0
+        assert -180.0 <= d["ball_azimuth_deg"] <= 180.0 and -90.0 <= d["ball_elevation_deg"] <= 90.0
+
+
+def _numpy_fk(skel, clip):
+    """Global rotation matrices (F,J,3,3) and positions (F,J,3): plain numpy, not the engine's FK."""
+    q = clip.local_rotations
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    m = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                  2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                  2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1).reshape(q.shape[:-1] + (3, 3))
+    F, J = q.shape[:2]
+    R, P = np.empty((F, J, 3, 3)), np.empty((F, J, 3))
+    for j in range(J):
+        p = skel.parents[j]
+        t = clip.root_positions if j == 0 else np.broadcast_to(skel.offsets[j], (F, 3))
+        if p < 0:
+            R[:, j], P[:, j] = m[:, j], t
+        else:
+            R[:, j] = R[:, p] @ m[:, j]
+            P[:, j] = P[:, p] + np.einsum("fab,fb->fa", R[:, p], t)
+    return R, P
+
+
+def test_json_agrees_with_the_exported_bvh(rig, library, tmp_path):
+    """The README's example shot, read back from the BVH it writes: the face
+    fields recomputed with engine.bvh + numpy (own FK, own collision)."""
+    shot = next(s for s in library if s.name == "cover_drive")
+    hit = np.array([-70.0, 45.0, 215.0])
+    out = tmp_path / "a.bvh"
+    d = _adapt_json("--shot", "cover_drive", "--hit", *map(str, hit), "--out", str(out))
+    assert set(FACE_KEYS) <= set(d)
+    skel, clip = bvh.read(out)
+    src_skel, src_clip = shot.skeleton, shot.clip
+    bat, h, fps = skel.names.index("Bat"), d["hit_frame"], clip.fps
+    R, P = _numpy_fk(skel, clip)
+    Rs, _ = _numpy_fk(src_skel, src_clip)
+    n_local = np.asarray(rig.bat["face_normal"], float)
+    n, ns = R[h, bat] @ n_local, Rs[h, src_skel.names.index("Bat")] @ n_local
+    assert np.degrees(np.arccos(np.clip(n @ ns, -1, 1))) == pytest.approx(d["face_angle_deg"], abs=0.05)
+    toward = (choice.BALL_START - hit) / np.linalg.norm(choice.BALL_START - hit)
+    assert n @ toward == pytest.approx(d["face_to_ball"], abs=1e-3)
+    assert d["contact"] == ("face" if n @ toward >= 0.2 else "back" if n @ toward <= -0.2 else "edge")
+    # the collision off the surface met (face n or back -n), in the bat's rest frame
+    bat_v = (P[h + 1, bat] - P[h - 1, bat]) * fps / 2
+    m = n if n @ toward > 0 else -n
+    rel = -ballistics.BALL_SPEED * toward - bat_v
+    vn = rel @ m
+    v = bat_v + ballistics.TANGENT_KEEP * (rel - vn * m) - ballistics.RESTITUTION_BAT * vn * m
+    assert np.degrees(np.arctan2(-v[0], v[2])) == pytest.approx(d["ball_azimuth_deg"], abs=0.2)
+    assert np.degrees(np.arctan2(v[1], np.hypot(v[0], v[2]))) == pytest.approx(d["ball_elevation_deg"], abs=0.2)
