@@ -12,7 +12,7 @@ import typer
 from app.cmd_render import check_png_out, save_png_atomic
 from app.errors import MAX_POSITION_CM, UserError, cli_errors, numbers, shorten
 from app.errors import falloff as falloff_cm
-from engine import quat
+from engine import choice, quat
 from engine.library import find_shot, load_library
 from engine.rig import default_rig
 from engine.skeleton import Clip, bind_positions, clip_fk, skinning_matrices
@@ -35,6 +35,7 @@ def register(cli: typer.Typer) -> None:
         pcs: int = typer.Option(3, "--pcs", min=1, help="--style: PCs of the source the adapted shot is compared in (2.5.5 uses 3)."),
         strip: Path = typer.Option(None, "--components-strip", help="Write a PNG of poses along PC1..3 from -3 to +3 SD (Figure 3.2)."),
         part: str = typer.Option("upper", "--part", help="--components-strip: upper (as in Figure 3.2) or body."),
+        directions: bool = typer.Option(False, "--directions", help="Face angle and ball direction over a grid of hit-point offsets, wrist 0 vs 2 DOF (Fig. 2.6); --json for JSON."),
         multi: bool = typer.Option(False, "--multi", help="The 'batting space' of all shots together (4.2): variance of 2 and 3 PCs."),
         library: Path = typer.Option(None, "--library", help="Shot manifest (default: the bundled library)."),
     ):
@@ -49,9 +50,10 @@ def register(cli: typer.Typer) -> None:
             check_png_out(strip, "--components-strip")
             if part not in PARTS:
                 raise UserError(f"--part must be one of {', '.join(PARTS)}, got {shorten(part)!r}")
-        if style:
+        if style or directions:
             from engine.adapt import AdaptSettings, check_settings  # numba (0.25 s): when the command runs
-            offsets_cm, falloff = _parse_offsets(offsets), falloff_cm("--falloff", falloff)
+            offsets_cm = _parse_offsets(offsets) if style else None
+            falloff = falloff_cm("--falloff", falloff)
             check_settings(AdaptSettings(falloff=falloff, solver=solver))
         rig = default_rig()
         shots = load_library(library, rig)
@@ -59,6 +61,13 @@ def register(cli: typer.Typer) -> None:
             raise UserError("the shot library is empty")
         if shot:
             shots = [find_shot(shots, n) for n in shot]
+        if directions:
+            report = directions_report(rig, shots, falloff_cm("--falloff", falloff), solver)
+            if as_json:
+                print(json.dumps(report, indent=1))
+            else:
+                print_directions(report)
+            return
         if style:
             print(json.dumps(style_report(rig, shots, offsets_cm, falloff, solver, pcs), indent=1))
             return
@@ -194,6 +203,166 @@ def style_report(rig, shots, offsets: list[float], falloff: float, solver: str, 
         "agrees_with_dissertation": overall["upper"]["dof0_better"],
         "shots": results,
     }
+
+
+# ----------------------------------------------------------------- directions
+GRID_X = (-30.0, -15.0, 0.0, 15.0, 30.0)    # cm, across the ball's line (-X: off side)
+GRID_Y = (-15.0, 0.0, 15.0)                 # cm, up
+REACHED_CM = 0.01                           # bat error below which an offset counts as reached
+
+
+def _ranks(v) -> np.ndarray:
+    """Ranks of ``v`` (1..n), ties averaged."""
+    v = np.asarray(v, float)
+    order = np.argsort(v, kind="stable")
+    r = np.empty(len(v))
+    r[order] = np.arange(1, len(v) + 1)
+    for u in np.unique(v):
+        same = v == u
+        r[same] = r[same].mean()
+    return r
+
+
+def spearman(a, b) -> float:
+    """Spearman's rank correlation of two equal-length sequences (nan when one is constant)."""
+    ra, rb = _ranks(a), _ranks(b)
+    ra, rb = ra - ra.mean(), rb - rb.mean()
+    d = float(np.sqrt((ra @ ra) * (rb @ rb)))
+    return float(ra @ rb / d) if d > 0 else float("nan")
+
+
+def source_direction(rig, shot) -> dict:
+    """The source shot at its own hit point: face, ball direction and bat speed
+    (central difference of the bat joint), and where the horizontal bat speed peaks."""
+    from app.cmd_adapt import hit_summary
+    from engine import ballistics
+    grot, gpos = shot.fk
+    h, fps = shot.hit_frame, shot.clip.fps
+    out = hit_summary(rig, shot, grot, gpos, choice.BALL_START, shot.hit_point)
+    del out["face_angle_deg"]
+    v = np.array([ballistics.bat_velocity(gpos, rig.bat_joint, f, fps) for f in range(shot.num_frames)])
+    horiz = np.hypot(v[:, 0], v[:, 2])
+    k = int(np.argmax(horiz[1:-1])) + 1                  # central differences only
+    den = horiz[k - 1] - 2 * horiz[k] + horiz[k + 1]     # sub-frame peak: parabola through 3 samples
+    peak = k + (0.5 * (horiz[k - 1] - horiz[k + 1]) / den if den < 0 else 0.0)
+    out.update({"bat_speed_mps": round(float(np.linalg.norm(v[h])) / 100, 2),
+                "bat_horizontal_speed_mps": round(float(horiz[h]) / 100, 2),
+                "peak_horizontal_speed_mps": round(float(horiz[k]) / 100, 2),
+                "peak_frames_after_hit": round(float(peak - h), 1)})
+    return out
+
+
+def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd") -> dict:
+    """Every shot adapted over the GRID_X x GRID_Y offsets (cm, on the plane facing
+    the bowler) with the wrist at 0 and 2 DOF: face angle vs the source, face_to_ball,
+    contact and the ball's azimuth/elevation (Fig. 2.6's data), a summary per shot
+    and over all shots."""
+    from app.cmd_adapt import hit_summary
+    from engine.adapt import AdaptSettings, Adapter  # numba (0.25 s): when the command runs
+    from engine import face
+
+    results = []
+    pooled = {d: {"angle": [], "cos": []} for d in (0, 2)}
+    for s in shots:
+        adapter = Adapter(rig, s)
+        src = source_direction(rig, s)
+        grid, summary = [], {}
+        for dof in (0, 2):
+            settings = AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver)
+            rows = []
+            for dy in GRID_Y:
+                for dx in GRID_X:
+                    a = adapter.adapt(s.hit_point + np.array([dx, dy, 0.0]), settings)
+                    e = {"wrist_dof": dof, "offset_cm": [dx, dy, 0.0], "bat_error_cm": round(a.bat_error_cm, 4),
+                         **hit_summary(rig, s, a.global_rotations, a.global_positions, choice.BALL_START,
+                                       a.desired_hit_point)}
+                    # unwrapped around the source's direction, so a shot near +-180 deg stays continuous
+                    e["ball_azimuth_deg"] = round(float(src["ball_azimuth_deg"] + face.wrap_deg(
+                        e["ball_azimuth_deg"] - src["ball_azimuth_deg"])), 2)
+                    rows.append(e)
+            grid += rows
+            ok = [e for e in rows if e["bat_error_cm"] < REACHED_CM]
+            ang = np.array([e["face_angle_deg"] for e in ok])
+            cos = np.array([e["face_to_ball"] for e in ok])
+            pooled[dof]["angle"] += list(ang)
+            pooled[dof]["cos"] += list(cos)
+            off = [-e["offset_cm"][0] for e in ok]           # toward the off side
+            rho = spearman(off, [e["ball_azimuth_deg"] for e in ok]) if len(ok) > 2 else float("nan")
+            rows_up = 0
+            for dy in GRID_Y:
+                az = [e["ball_azimuth_deg"] for e in sorted((e for e in ok if e["offset_cm"][1] == dy),
+                                                              key=lambda e: -e["offset_cm"][0])]
+                rows_up += int(len(az) == len(GRID_X) and bool(np.all(np.diff(az) > 0)))
+            summary[f"dof{dof}"] = {
+                "reached": f"{len(ok)}/{len(rows)}",
+                "face_angle_median_deg": round(float(np.median(ang)), 2) if len(ang) else None,
+                "face_angle_max_deg": round(float(ang.max()), 2) if len(ang) else None,
+                "face_share": round(float(np.mean([e["contact"] == "face" for e in ok])), 3) if ok else None,
+                "turned_from_ball": int(np.sum(cos < 0)),
+                "spearman_azimuth_vs_off_offset": None if np.isnan(rho) else round(rho, 3),
+                "azimuth_moves_with_hit_point": bool(rho > 0),
+                "rows_strictly_increasing": f"{rows_up}/{len(GRID_Y)}",
+            }
+        results.append({"name": s.name, "source": src, **summary, "grid": grid})
+    overall = {}
+    for dof, p in pooled.items():
+        ang, cos = np.array(p["angle"]), np.array(p["cos"])
+        overall[f"dof{dof}"] = {
+            "offsets": int(len(ang)),
+            "face_angle_median_deg": round(float(np.median(ang)), 2) if len(ang) else None,
+            "face_angle_p90_deg": round(float(np.percentile(ang, 90)), 2) if len(ang) else None,
+            "face_angle_max_deg": round(float(ang.max()), 2) if len(ang) else None,
+            "turned_from_ball": int(np.sum(cos < 0)),
+            "shots_azimuth_moves_with_hit_point": int(sum(r[f"dof{dof}"]["azimuth_moves_with_hit_point"]
+                                                          for r in results)),
+        }
+    return {
+        "method": "hit point moved by offset_cm (x across the ball's line, -x the off side; y up) on the plane "
+                  "facing the bowler; face angle = angle between the adapted and the source face normals at the "
+                  "hit frame; face_to_ball = cosine of the face normal and the direction toward the incoming ball "
+                  f"(contact: face >= {face.EDGE_COS}, back <= -{face.EDGE_COS}, edge between); ball direction "
+                  "of the velocity just after the impact (0 deg straight back past the bowler, + toward the off "
+                  f"side); statistics over offsets reached to {REACHED_CM} cm; Fig. 2.6 holds when Spearman's "
+                  "rho of azimuth vs the off-side offset is positive",
+        "grid_x_cm": list(GRID_X), "grid_y_cm": list(GRID_Y),
+        "settings": {"falloff": falloff, "solver": solver},
+        "overall": overall,
+        "shots": results,
+    }
+
+
+def print_directions(report: dict) -> None:
+    """The directions report as tables: per shot the source's direction, the grid
+    (0 | 2 DOF side by side) and a summary line per wrist setting."""
+    for r in report["shots"]:
+        s = r["source"]
+        print(f"{r['name']}: source az {s['ball_azimuth_deg']:+.1f} el {s['ball_elevation_deg']:+.1f} "
+              f"face_to_ball {s['face_to_ball']:+.2f} ({s['contact']}), bat {s['bat_speed_mps']:.1f} m/s at the hit, "
+              f"horizontal peak {s['peak_horizontal_speed_mps']:.1f} m/s {s['peak_frames_after_hit']:+.1f} frames from it")
+        print(f"  {'dx':>5}{'dy':>5} | {'wrist 0 DOF: angle  cos contact    az    el':<44}| wrist 2 DOF: angle  cos contact    az    el")
+        by = {(e["wrist_dof"], e["offset_cm"][0], e["offset_cm"][1]): e for e in r["grid"]}
+        for dy in report["grid_y_cm"]:
+            for dx in report["grid_x_cm"]:
+                cells = []
+                for dof in (0, 2):
+                    e = by[(dof, dx, dy)]
+                    mark = "" if e["bat_error_cm"] < REACHED_CM else "*"
+                    cells.append(f"{e['face_angle_deg']:12.1f}{e['face_to_ball']:+6.2f} {e['contact']:<5}"
+                                 f"{e['ball_azimuth_deg']:+7.1f}{e['ball_elevation_deg']:+6.1f}{mark:<1}")
+                print(f"  {dx:5.0f}{dy:5.0f} |{cells[0]:<45}|{cells[1]}")
+        for dof in (0, 2):
+            m = r[f"dof{dof}"]
+            print(f"  {dof} DOF: face angle median {m['face_angle_median_deg']} max {m['face_angle_max_deg']} deg, "
+                  f"face {m['face_share']}, turned from the ball {m['turned_from_ball']}, reached {m['reached']}, "
+                  f"rho(az, off) {m['spearman_azimuth_vs_off_offset']} -> "
+                  f"{'moves with the hit point' if m['azimuth_moves_with_hit_point'] else 'NOT monotonic'}")
+    for dof in (0, 2):
+        o = report["overall"][f"dof{dof}"]
+        print(f"all shots, {dof} DOF: face angle median {o['face_angle_median_deg']} p90 {o['face_angle_p90_deg']} "
+              f"max {o['face_angle_max_deg']} deg over {o['offsets']} offsets, turned from the ball "
+              f"{o['turned_from_ball']}, azimuth moves with the hit point in "
+              f"{o['shots_azimuth_moves_with_hit_point']}/{len(report['shots'])} shots")
+    print("(* offset not reached: bat error >= %g cm)" % REACHED_CM)
 
 
 # ------------------------------------------------------------ components strip

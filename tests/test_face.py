@@ -166,3 +166,31 @@ def test_json_agrees_with_the_exported_bvh(rig, library, tmp_path):
     v = bat_v + ballistics.TANGENT_KEEP * (rel - vn * m) - ballistics.RESTITUTION_BAT * vn * m
     assert np.degrees(np.arctan2(-v[0], v[2])) == pytest.approx(d["ball_azimuth_deg"], abs=0.2)
     assert np.degrees(np.arctan2(v[1], np.hypot(v[0], v[2]))) == pytest.approx(d["ball_elevation_deg"], abs=0.2)
+
+
+# ------------------------------------------------------------ analyse --directions
+
+def test_spearman():
+    from app.cmd_analyse import spearman
+    assert spearman([1, 2, 3, 4], [10, 20, 25, 100]) == pytest.approx(1.0)
+    assert spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
+    assert spearman([1, 1, 2, 2], [1, 2, 3, 4]) == pytest.approx(np.corrcoef([1.5, 1.5, 3.5, 3.5], [1, 2, 3, 4])[0, 1])
+
+
+def test_analyse_directions_json_and_table():
+    d = json.loads(_cli("analyse", "--directions", "--shot", "straight_drive", "--json"))
+    (s,) = d["shots"]
+    assert len(s["grid"]) == 2 * len(d["grid_x_cm"]) * len(d["grid_y_cm"])
+    for e in s["grid"]:
+        assert set(FACE_KEYS) <= set(e) and e["wrist_dof"] in (0, 2)
+    zero = [e for e in s["grid"] if e["offset_cm"] == [0.0, 0.0, 0.0]]
+    assert len(zero) == 2 and all(e["face_angle_deg"] < 1e-3 for e in zero)
+    src = s["source"]
+    assert all(e["ball_azimuth_deg"] == pytest.approx(src["ball_azimuth_deg"], abs=0.01) for e in zero)
+    for dof in ("dof0", "dof2"):
+        assert {"face_angle_median_deg", "face_angle_max_deg", "face_share", "spearman_azimuth_vs_off_offset",
+                "azimuth_moves_with_hit_point", "turned_from_ball"} <= set(s[dof])
+        assert {"face_angle_p90_deg", "turned_from_ball"} <= set(d["overall"][dof])
+    assert src["bat_speed_mps"] > 0
+    t = _cli("analyse", "--directions", "--shot", "straight_drive")
+    assert "straight_drive" in t and "rho(az, off)" in t and "all shots, 0 DOF" in t
