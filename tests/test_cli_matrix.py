@@ -299,7 +299,7 @@ def test_number_is_a_finite_value_in_range_or_one_short_user_error(value, intege
                                            "2", "1e400", "x.bvh"]),
                           st.text(max_size=12)), max_size=10))
 def test_adapt_arguments_parse_or_fail_with_one_user_error(args):
-    from app.cmd_adapt import parse_args
+    from app.cli.adapt import parse_args
     try:
         got = parse_args(args)
     except UserError as e:
@@ -340,11 +340,11 @@ def test_headless_scripted_capture_into_a_missing_folder_exits_2(place):
 
 
 def test_headless_view_whose_renderer_failed_exits_2(place, capsys, monkeypatch):
-    import app.viewer
+    import app.viewer.loop
 
     def broken(*a, **k):
         raise ValueError("bad mesh asset")
-    monkeypatch.setattr(app.viewer, "SceneRenderer", broken)
+    monkeypatch.setattr(app.viewer.loop, "SceneRenderer", broken)
     line = assert_refused(place, capsys, ["view", "--headless", "--frames", "2", "--stats", "{d}/out/s.json"])
     assert "renderer" in line and "bad mesh asset" in line
 

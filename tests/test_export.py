@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
-from app.mesh import _accessor, load_glb
+from app.render.mesh import _accessor, load_glb
 from engine import bvh, quat
 from engine.gltf_export import METRES_PER_CM, write_gltf
 from engine.library import conform_to_rig, load_library
@@ -314,7 +314,7 @@ def conform_to_rig_of(shot, skel, clip):
 # ----------------------------------------------------------------- viewer export
 @pytest.fixture(scope="module")
 def app():
-    from app.viewer import App
+    from app.viewer.loop import App
     a = App((640, 360), headless=True)
     for _ in range(3):
         a.frame(dt=1 / 60)
@@ -381,7 +381,7 @@ def test_viewer_export_never_writes_into_an_existing_folder(app, tmp_path):
 
 def test_scripted_export_with_formats(app, tmp_path):
     from app.errors import UserError
-    from app.script import ScriptPlayer
+    from app.viewer.script import ScriptPlayer
     out = tmp_path / "only_motion"
     player = ScriptPlayer([{"type": "export", "frame": 0, "dir": str(out), "formats": ["bvh", "gltf"]}])
     player.apply(app, 0)

@@ -111,7 +111,7 @@ def _adapt_json(*args):
 
 
 def test_source_at_its_own_hit_point_has_face_angle_zero(library):
-    from app.cmd_adapt import run_adapt
+    from app.cli.adapt import run_adapt
     for s in library[:3]:
         d = run_adapt(shot_name=s.name, hit=list(s.hit_point))
         assert d["face_angle_deg"] < 1e-3
@@ -171,7 +171,7 @@ def test_json_agrees_with_the_exported_bvh(rig, library, tmp_path):
 # ------------------------------------------------------------ analyse --directions
 
 def test_spearman():
-    from app.cmd_analyse import spearman
+    from app.cli.analyse import spearman
     assert spearman([1, 2, 3, 4], [10, 20, 25, 100]) == pytest.approx(1.0)
     assert spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
     assert spearman([1, 1, 2, 2], [1, 2, 3, 4]) == pytest.approx(np.corrcoef([1.5, 1.5, 3.5, 3.5], [1, 2, 3, 4])[0, 1])

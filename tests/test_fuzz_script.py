@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from app import script as sc
+from app.viewer import script as sc
 from app.errors import UserError
-from app.settings import (SETTING_CHOICES, SETTING_RANGES, ViewerSettings, check_setting, setting_kinds)
+from app.viewer.settings import (SETTING_CHOICES, SETTING_RANGES, ViewerSettings, check_setting, setting_kinds)
 from conftest import ROOT
 
 FUZZ = settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -183,7 +183,7 @@ def test_every_setting_applies_valid_values(data):
 
 def valid_events():
     """Scripts that must load and run: every field in range."""
-    from app.interaction import KEY_NAMES
+    from app.viewer.interaction import KEY_NAMES
     at, n = st.integers(0, 20), st.integers(1, 20)
     xy, score = st.lists(st.floats(-1000, 3000), min_size=2, max_size=2), st.lists(st.floats(-20, 20), min_size=2,
                                                                                    max_size=2)

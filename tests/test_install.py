@@ -8,7 +8,7 @@ from importlib import metadata
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-BENCH_FILES = ("app/cmd_bench.py",)     # `hitpoint bench` compares against ikpy (the bench extra)
+BENCH_FILES = ("app/cli/bench.py",)     # `hitpoint bench` compares against ikpy (the bench extra)
 
 
 def _files(*folders, exclude=()):
@@ -83,11 +83,21 @@ def test_every_dependency_has_bounds_and_a_pinned_version():
         assert name in pinned, f"{name} is not pinned in constraints.txt"
 
 
-def test_data_folders_are_installed_with_the_code():
-    packages = _pyproject()["tool"]["setuptools"]["packages"]
-    for folder in ("assets", "shaders", "app/render"):
-        assert folder.replace("/", ".") in packages
+def test_every_folder_of_code_and_data_is_installed():
+    from setuptools import find_namespace_packages
+    find = _pyproject()["tool"]["setuptools"]["packages"]["find"]
+    installed = set(find_namespace_packages(str(ROOT), include=find["include"]))
+    for folder in ("app", "engine", "tools"):
+        for init in (ROOT / folder).rglob("__init__.py"):
+            assert ".".join(init.parent.relative_to(ROOT).parts) in installed, init
+    assert {"assets", "assets.shots", "shaders"} <= installed
     data = _pyproject()["tool"]["setuptools"]["package-data"]
     suffixes = {p.suffix for p in (ROOT / "shaders").iterdir()} | {p.suffix for p in (ROOT / "assets").rglob("*.*")}
     patterns = {pat[1:] for pats in data.values() for pat in pats}
     assert suffixes <= patterns, f"data files not installed: {suffixes - patterns}"
+
+
+def test_app_folders_show_the_architecture():
+    """app/ is folders by role; at most 6 loose modules beside them."""
+    loose = [p.name for p in (ROOT / "app").glob("*.py") if p.name != "__init__.py"]
+    assert len(loose) <= 6, loose

@@ -8,7 +8,7 @@ from engine.skeleton import bind_positions, forward_kinematics, skinning_matrice
 
 @pytest.fixture(scope="module")
 def meshes(rig):
-    from app.mesh import load_glb
+    from app.render.mesh import load_glb
     return load_glb(None, rig)
 
 
@@ -178,7 +178,7 @@ def test_committed_glb_matches_the_script(body, meshes, rig):
 
 def test_unknown_skin_joint_is_a_clear_error(tmp_path, rig):
     import pygltflib
-    from app.mesh import default_glb_path, load_glb
+    from app.render.mesh import default_glb_path, load_glb
     g = pygltflib.GLTF2().load(str(default_glb_path()))
     g.nodes[3].name = "NotAJoint"
     path = tmp_path / "bad.glb"

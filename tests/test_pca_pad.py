@@ -2,8 +2,10 @@
 import numpy as np
 import pytest
 
-from app import padwidget, pcpad
-from app.state import AppState
+from app.ui import padwidget
+
+from app.viewer import pcpad
+from app.viewer.state import AppState
 from engine import quat
 from engine.library import Shot
 from engine.skeleton import clip_fk

@@ -183,7 +183,7 @@ def test_render_strip_cli(tmp_path):
 
 
 def test_strip_frames_include_the_hit_frame():
-    from app.cmd_render import strip_frames
+    from app.cli.render import strip_frames
     for n, h, k in ((69, 30, 9), (10, 0, 4), (5, 4, 10), (100, 57, 1)):
         f = strip_frames(n, h, k)
         assert h in f and f == sorted(set(f)) and 0 <= min(f) and max(f) < n and len(f) <= k
@@ -274,7 +274,7 @@ def test_antialias_toggle_softens_edges_only(renderer, rig):
 
 def test_compositor_draws_every_scene_into_the_frame(renderer):
     """At scale 1 every scene is drawn straight into the frame, at the viewport's corner."""
-    from app.compose import Compositor
+    from app.render.compose import Compositor
     ctx = renderer.ctx
     with ctx:
         comp = Compositor(ctx, software_gl=renderer.software_gl)

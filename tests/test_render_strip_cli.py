@@ -21,7 +21,7 @@ def test_adapted_strip_differs_from_the_source_strip(tmp_path):
     assert a.shape == b.shape
     # top row (meshes): frames 0 and last are the source pose (blend 0, the
     # ghost coincides), the hit frame reaches for the new point
-    from app.cmd_render import TITLE_H
+    from app.cli.render import TITLE_H
     W, H = 160, 200
     top = slice(TITLE_H, TITLE_H + H)
     cells = [np.abs(a[top, k * W:(k + 1) * W] - b[top, k * W:(k + 1) * W]).sum(-1) > 30 for k in range(3)]

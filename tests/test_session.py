@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings as hsettings, strategies as st
 
-from app import capture, session as sess
-from app.camera import OrbitCamera
-from app.settings import ViewerSettings
-from app.state import AppState
+from app.viewer import capture, session as sess
+from app.viewer.camera import OrbitCamera
+from app.viewer.settings import ViewerSettings
+from app.viewer.state import AppState
 from engine.synth import MAX_ABS_SCORE
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
@@ -50,8 +50,8 @@ def test_session_round_trip_through_two_viewers(tmp_path):
     """Settings, camera, overlays, pad options and three drawn takes on two shots come back in a
     new viewer; a take picked there re-synthesises the very same clip; shot switches and a
     library reload kept every take on the way."""
-    from app.script import ScriptPlayer
-    from app.viewer import App
+    from app.viewer.script import ScriptPlayer
+    from app.viewer.loop import App
     app = App(SIZE, headless=True, session=sess.Autosave(tmp_path))
     try:
         run(app, 2)
@@ -95,7 +95,7 @@ def test_session_round_trip_through_two_viewers(tmp_path):
                 assert t.kind == kind and np.array_equal(t.points, points) and np.array_equal(t.times, times)
         assert app.state.errors == 0, app.state.messages
         run(app, 2)
-        from app.pcpad import show_take
+        from app.viewer.pcpad import show_take
         show_take(app.state, 0)                  # the second shot is pinned: its one take
         again = pad.shot_takes(second)[0].anim
         assert np.array_equal(again.local_rotations, clip.local_rotations)
@@ -320,7 +320,7 @@ def test_a_killed_viewer_loses_no_autosaved_take(tmp_path):
         proc.wait()
         proc.stderr.close()
     assert proc.returncode == -signal.SIGKILL
-    from app.viewer import App
+    from app.viewer.loop import App
     app = App((640, 400), headless=True, session=sess.Autosave(tmp_path))
     try:
         restored = [t for shot in app.state.pc_pad.takes.values() for t in shot]

@@ -13,7 +13,7 @@ SIZE = (1280, 720)
 
 @pytest.fixture(scope="module")
 def app():
-    from app.viewer import App
+    from app.viewer.loop import App
     a = App(SIZE, headless=True)
     for _ in range(3):
         a.frame(dt=1 / 60)
@@ -30,8 +30,8 @@ def run(app, frames=1, player=None, start=0):
 
 def render_view(app, edit=None):
     """Render the current SceneView (optionally edited) offscreen at the viewport's size."""
-    from app.capture import read_rgb
-    from app.submit import build_scene_view
+    from app.viewer.capture import read_rgb
+    from app.render.submit import build_scene_view
     size = tuple(app.state.viewport[2:])
     fbo = app.ctx.framebuffer([app.ctx.texture(size, 4)], app.ctx.depth_renderbuffer(size))
     try:
@@ -66,7 +66,7 @@ def test_pieces_are_real(app):
 
 
 def test_default_scene_has_batsman_ball_pitch_and_panel(app):
-    from app.viewer import layout
+    from app.viewer.loop import layout
     app.settings.overlays.ghost = "off"
     app.scrub(app.state.shot.hit_frame - 1)
     run(app, 2)
@@ -115,8 +115,8 @@ def test_default_scene_has_batsman_ball_pitch_and_panel(app):
 
 
 def test_scripted_drag_moves_the_adapted_bat(app):
-    from app.script import ScriptPlayer
-    from app.update import choose
+    from app.viewer.script import ScriptPlayer
+    from app.viewer.update import choose
     start = np.asarray(app.settings.target, float).copy()
     goal = start + np.array([-25.0, 18.0, 0.0])
     player = ScriptPlayer([{"type": "drag_target", "frame": 0, "to": goal.tolist(), "frames": 12}])
@@ -155,8 +155,8 @@ def test_drag_starts_only_on_the_target_and_shows_a_hand(app):
 
 
 def test_scrubbing_changes_the_frame_shown(app):
-    from app.timeline import track_span, track_x
-    from app.viewer import layout
+    from app.ui.timeline import track_span, track_x
+    from app.viewer.loop import layout
     app.scrub(0)
     run(app, 2)
     first = app.screenshot().copy()
@@ -178,7 +178,7 @@ def test_scrubbing_changes_the_frame_shown(app):
 
 
 def test_keys_drive_playback(app):
-    from app.interaction import KEY_NAMES
+    from app.viewer.interaction import KEY_NAMES
     it, s = app.interaction, app.settings
 
     def press(name):
@@ -225,7 +225,7 @@ def test_engine_error_keeps_last_good_state(app, monkeypatch):
 
 
 def test_bad_library_file_is_reported_not_fatal(app, tmp_path):
-    from app.update import load_library
+    from app.viewer.update import load_library
     bad = tmp_path / "library.json"
     bad.write_text("[{\"name\": \"x\", \"file\": \"missing.bvh\", \"hit_frame\": 3}]")
     shots = app.state.shots
@@ -262,7 +262,7 @@ def test_ball_meets_the_bat_at_the_hit_frame(app):
 def test_watching_the_hit_frame_follows_a_shot_switch(app):
     """At a shot's hit frame, dragging the target onto another shot's ball line moves
     the view to the new shot's hit frame, where bat and ball meet again."""
-    from app.update import default_target
+    from app.viewer.update import default_target
     s = app.state
     names = [shot.name for shot in s.shots]
     a, b = names.index("back_foot_defence"), names.index("square_cut")
@@ -285,7 +285,7 @@ def test_watching_the_hit_frame_follows_a_shot_switch(app):
 
 
 def test_f12_screenshot_and_frame_export(app, tmp_path, monkeypatch):
-    from app.interaction import KEY_NAMES
+    from app.viewer.interaction import KEY_NAMES
     monkeypatch.chdir(tmp_path)
     app.interaction.key(KEY_NAMES["f12"], True)
     app.interaction.key(KEY_NAMES["f12"], False)
@@ -307,7 +307,7 @@ def test_f12_screenshot_and_frame_export(app, tmp_path, monkeypatch):
 
 
 def test_scripted_pc_pad_drag_drives_the_pose(app):
-    from app.script import ScriptPlayer
+    from app.viewer.script import ScriptPlayer
     run(app, 1)
     adapted = app.state.pose.global_positions.copy()
     player = ScriptPlayer([{"type": "pcpad_drag", "frame": 0, "from": [0, 0], "to": [1.5, -1.0], "frames": 5}])
@@ -323,8 +323,8 @@ def test_scripted_pc_pad_drag_drives_the_pose(app):
 def test_every_pc_pad_action_can_be_scripted(app, tmp_path, monkeypatch):
     """What the pad's widget does, a script does through the same requests: presets, the
     amount, a drawn take, the take list, play/pause, the BVH export, back to the shot."""
-    from app.script import ScriptPlayer
-    from app.update import default_target
+    from app.viewer.script import ScriptPlayer
+    from app.viewer.update import default_target
     monkeypatch.chdir(tmp_path)
     app.settings.target = default_target(app.state)
     run(app, 2)
@@ -359,7 +359,7 @@ def test_every_pc_pad_action_can_be_scripted(app, tmp_path, monkeypatch):
                                    {"action": "loop", "value": "yes"}, {"action": "mode", "value": "paint"}])
 def test_a_bad_pc_pad_action_fails_when_the_script_loads(event):
     from app.errors import UserError
-    from app.script import ScriptPlayer
+    from app.viewer.script import ScriptPlayer
     with pytest.raises(UserError, match="pcpad"):
         ScriptPlayer([{"type": "pcpad", "frame": 0, **event}])
 
@@ -384,7 +384,7 @@ def test_idle_frames_draw_the_scene_exactly_where_it_was_drawn(app):
 def test_without_region_copies_the_scene_still_lands_above_the_timeline(app, monkeypatch):
     """Where GL cannot copy framebuffer regions, the scene goes through its own
     framebuffer and is stretched into place: the same picture."""
-    import app.compose as compose
+    import app.render.compose as compose
     monkeypatch.setattr(compose, "can_copy_regions", lambda: False)
     app.settings.overlays.ghost = "mesh"
     run(app, 2)
@@ -399,7 +399,7 @@ def test_without_region_copies_the_scene_still_lands_above_the_timeline(app, mon
 
 
 def test_timing_readouts_are_quarter_second_means():
-    from app.state import TIMING_PERIOD_S, TimingDisplay
+    from app.viewer.state import TIMING_PERIOD_S, TimingDisplay
     t = TimingDisplay()
     t.add(0.0, frame=10.0)
     assert t.shown == {"frame": 10.0}            # something to show from the first frame
@@ -420,9 +420,9 @@ def test_startup_objects_are_frozen_out_of_full_collections(app):
 def test_the_first_solve_is_solved_again_for_the_readout():
     """The first solve (building the shot's adapter) is solved once more: the panel's solve
     readout is a re-solve's, and the next frame does not solve again."""
-    from app.settings import ViewerSettings
-    from app.state import AppState
-    from app.update import default_target, load_library, update
+    from app.viewer.settings import ViewerSettings
+    from app.viewer.state import AppState
+    from app.viewer.update import default_target, load_library, update
     state, settings = AppState(), ViewerSettings()
     assert load_library(state, None)
     settings.target = default_target(state)

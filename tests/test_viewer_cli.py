@@ -73,7 +73,7 @@ def test_bad_options_are_one_line_exit_2(tmp_path):
 def test_view_is_callable_without_arguments():
     """Plain ``hitpoint`` invokes ``view()`` directly: every default must be a real value."""
     import inspect
-    from app.cmd_view import view
+    from app.cli.view import view
     for name, p in inspect.signature(view).parameters.items():
         assert p.default is not inspect.Parameter.empty, name
         assert not type(p.default).__name__.endswith("Info"), name
@@ -93,8 +93,8 @@ def test_visible_window_presents_the_composed_frame(tmp_path, software_gl):
     code = r'''
 import ctypes, json, sys, numpy as np
 from app import softgl
-from app.viewer import App
-from app.script import ScriptPlayer
+from app.viewer.loop import App
+from app.viewer.script import ScriptPlayer
 
 
 class XImage(ctypes.Structure):

@@ -2,8 +2,8 @@
 them, target drags stay on their plane and in bounds, gestures stay sane."""
 import numpy as np
 
-from app import picking
-from app.camera import OrbitCamera
+from app.viewer import picking
+from app.viewer.camera import OrbitCamera
 
 VIEWPORT = (0, 0, 920, 674)
 

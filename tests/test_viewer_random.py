@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from app.errors import UserError
-from app.interaction import KEY_NAMES, LEFT, MIDDLE, RIGHT
+from app.viewer.interaction import KEY_NAMES, LEFT, MIDDLE, RIGHT
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 
@@ -26,7 +26,7 @@ SETTINGS = {
 
 
 def test_random_input_never_breaks_the_viewer(tmp_path, monkeypatch):
-    from app.viewer import App
+    from app.viewer.loop import App
     monkeypatch.chdir(tmp_path)  # F12 among the random keys writes screenshots to the cwd
     rng = np.random.default_rng(7)
     app = App((1280, 720), headless=True)

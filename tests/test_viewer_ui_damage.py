@@ -101,9 +101,9 @@ def test_new_target_or_no_keep_redraws_everything():
 def test_partial_redraws_match_a_full_redraw_during_a_drag():
     """Frame after frame of dragging the target at the hit frame (readouts and the
     blend plot change), the damage-tracked frame equals a full redraw of the UI."""
-    from app.capture import read_rgb
-    from app.script import ScriptPlayer
-    from app.viewer import App, layout
+    from app.viewer.capture import read_rgb
+    from app.viewer.script import ScriptPlayer
+    from app.viewer.loop import App, layout
     app = App((960, 600), headless=True)
     try:
         player = ScriptPlayer([{"type": "key", "key": "h", "frame": 0},
@@ -134,7 +134,7 @@ def test_partial_redraws_match_a_full_redraw_during_a_drag():
 def test_a_new_shot_does_not_move_the_panel_below_its_description():
     """Descriptions of different lengths sit in a block of one height: picking another
     shot redraws its lines, readouts and plot, not the whole panel."""
-    from app.viewer import App
+    from app.viewer.loop import App
     app = App((960, 600), headless=True)
     try:
         names = sorted(app.state.shots, key=lambda s: len(s.description or ""))

@@ -1,15 +1,15 @@
-"""The engine compiled behind the window (app.warmup) and the CLI's compile note (app.compile_note)."""
+"""The engine compiled behind the window (app.warmup) and the CLI's compile note (app.cli.compile_note)."""
 import io
 import threading
 import time
 
 import numpy as np
 
-from app.compile_note import NOTE, CompileNote
-from app.settings import ViewerSettings
-from app.state import AppState
-from app.update import choose, default_target, load_library, update
-from app.warmup import EngineWarmup
+from app.cli.compile_note import NOTE, CompileNote
+from app.viewer.settings import ViewerSettings
+from app.viewer.state import AppState
+from app.viewer.update import choose, default_target, load_library, update
+from app.viewer.warmup import EngineWarmup
 
 
 def _library():

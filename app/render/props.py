@@ -9,7 +9,7 @@ import functools
 
 import numpy as np
 
-from app.mesh import Mesh
+from app.render.mesh import Mesh
 
 STUMP_HEIGHT = 71.1         # cm above the ground (law 8)
 STUMP_DIAMETER = 3.65

@@ -85,7 +85,7 @@ class SceneRenderer:
     def __init__(self, ctx, rig, glb_path=None, software_gl: bool | None = None):
         """Load ``assets/batsman.glb`` (or ``glb_path``) and the shaders; build the passes.
         ``software_gl``: the software-GL profile (None: ``app.softgl.enabled(ctx)``)."""
-        from app.mesh import load_glb
+        from app.render.mesh import load_glb
         from engine.skeleton import bind_positions
 
         self.ctx, self.rig = ctx, rig

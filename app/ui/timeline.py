@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 from imgui_bundle import imgui
 
-from app.settings import ViewerSettings
-from app.state import AppState
+from app.viewer.settings import ViewerSettings
+from app.viewer.state import AppState
 
 TIMELINE_HEIGHT = 46
 _FLAGS = (imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_collapse

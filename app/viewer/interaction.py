@@ -13,10 +13,10 @@ import glfw
 import numpy as np
 from imgui_bundle import imgui
 
-from app import picking
-from app.camera import OrbitCamera
-from app.settings import SPEED_RANGE, ViewerSettings
-from app.state import AppState
+from app.viewer import picking
+from app.viewer.camera import OrbitCamera
+from app.viewer.settings import SPEED_RANGE, ViewerSettings
+from app.viewer.state import AppState
 
 LEFT, RIGHT, MIDDLE = glfw.MOUSE_BUTTON_LEFT, glfw.MOUSE_BUTTON_RIGHT, glfw.MOUSE_BUTTON_MIDDLE
 

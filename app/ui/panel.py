@@ -8,10 +8,10 @@ import time
 import numpy as np
 from imgui_bundle import imgui, implot
 
-from app.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, RENDER_SCALE_RANGE,
+from app.viewer.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, RENDER_SCALE_RANGE,
                           SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, ViewerSettings)
-from app.padwidget import draw_pc_pad
-from app.state import AppState
+from app.ui.padwidget import draw_pc_pad
+from app.viewer.state import AppState
 
 PANEL_WIDTH = 360
 VIEWPORT_SHOWS = {"pc pad": "PC pad pose", "adapted": "adapted shot", "source": "source shot"}

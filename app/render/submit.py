@@ -6,10 +6,10 @@ from collections import OrderedDict
 
 import numpy as np
 
-from app.camera import OrbitCamera
-from app.picking import TARGET_NORMAL
-from app.settings import ViewerSettings
-from app.state import AppState
+from app.viewer.camera import OrbitCamera
+from app.viewer.picking import TARGET_NORMAL
+from app.viewer.settings import ViewerSettings
+from app.viewer.state import AppState
 
 HIT_POINT_RGBA = (0.2, 0.45, 1.0, 1.0)          # the nine FK hit points: blue crosses
 CHOSEN_RGBA = (0.55, 0.8, 1.0, 1.0)

@@ -19,10 +19,10 @@ import time
 
 from numba.core.dispatcher import Dispatcher
 
-from app import pcpad
-from app.settings import SOLVERS, ViewerSettings
-from app.state import AppState
-from app.update import load_library, solve
+from app.viewer import pcpad
+from app.viewer.settings import SOLVERS, ViewerSettings
+from app.viewer.state import AppState
+from app.viewer.update import load_library, solve
 from engine import adapt, cleanup
 
 
@@ -53,7 +53,7 @@ class EngineWarmup:
         t0 = time.perf_counter()
         try:
             if self.apart and not kernels_cached():
-                subprocess.run([sys.executable, "-m", "app.warmup"], check=False,
+                subprocess.run([sys.executable, "-m", "app.viewer.warmup"], check=False,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             self._warm_solver()
             self.solver_ready.set()

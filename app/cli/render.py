@@ -14,7 +14,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 import typer
 
-from app.cmd_adapt import WRIST_DOFS
+from app.cli.adapt import WRIST_DOFS
 from app.errors import UserError, cli_errors, number, position
 from app.errors import falloff as falloff_cm
 from engine import quat

@@ -49,7 +49,7 @@ def view(
     frames = number("--frames", frames, 0, MAX_FRAMES, integer=True)
     player = None
     if script is not None:
-        from app.script import ScriptPlayer, load_script
+        from app.viewer.script import ScriptPlayer, load_script
         player = ScriptPlayer(load_script(script), str(script), frame_budget=frames or None)
     if library is not None and not library.is_file():
         raise UserError(f"{library}: shot library not found")
@@ -58,10 +58,10 @@ def view(
     if software_gl not in softgl.MODES:
         raise UserError(f"--software-gl {software_gl!r}: one of {', '.join(softgl.MODES)}")
     softgl.set_mode(software_gl)
-    from app.viewer import App
-    from app.window import DisplayError
+    from app.viewer.loop import App
+    from app.render.window import DisplayError
     try:
-        from app.session import autosave_for
+        from app.viewer.session import autosave_for
         app = App((w, h), headless=headless, manifest=library, started_at=started,
                   session=autosave_for(headless, script is not None, fresh, session))
     except DisplayError as e:
@@ -76,7 +76,7 @@ def view(
         else:
             app.run()
         if screenshot is not None:
-            from app.capture import write_png
+            from app.viewer.capture import write_png
             write_png(screenshot, app.screenshot())
         if stats is not None:
             skip = min(10, app.frame_index // 10)
@@ -111,7 +111,7 @@ def _parse_size(size) -> tuple[int, int]:
 def _check_outputs(screenshot: Optional[Path], stats: Optional[Path]) -> None:
     """UserError before the window opens for an output the run could not write."""
     if screenshot is not None:
-        from app.cmd_render import check_png_out
+        from app.cli.render import check_png_out
         check_png_out(screenshot, "--screenshot")
     if stats is not None:
         folder = stats.parent if str(stats.parent) else Path(".")

@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.capture import safe_stem, write_new
-from app.state import Pose
+from app.viewer.capture import safe_stem, write_new
+from app.viewer.state import Pose
 from engine import bvh, cleanup, synth
 from engine import pca as pcam
 

@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from app.pcpad import PadState
-    from app.warmup import EngineWarmup
+    from app.viewer.pcpad import PadState
+    from app.viewer.warmup import EngineWarmup
 
 
 @dataclass

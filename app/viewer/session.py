@@ -37,10 +37,10 @@ from pathlib import Path
 import numpy as np
 import platformdirs
 
-from app.capture import release, reserve_new
+from app.viewer.capture import release, reserve_new
 from app.errors import UserError, shorten
 from app.jsonfile import read_json
-from app.pcpad import MAX_TAKES_PER_SHOT, PRESET_LABELS, TAKE_KINDS, Take, pad_state
+from app.viewer.pcpad import MAX_TAKES_PER_SHOT, PRESET_LABELS, TAKE_KINDS, Take, pad_state
 from engine import atomic
 from engine.synth import check_scores, check_times   # what synthesis will accept
 
@@ -304,7 +304,7 @@ def take_from_data(item, where: str = "take"):
 # ------------------------------------------------------------------ the autosaver
 def _notice(state, line: str) -> None:
     """A panel line that is news, not a failure: a session recovered from (its file kept
-    aside) does not fail a headless run the way an error does (``cmd_view._refuse_failures``)."""
+    aside) does not fail a headless run the way an error does (``app.cli.view._refuse_failures``)."""
     state.report(line)
     state.errors -= 1
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from imgui_bundle import imgui, implot
 
-from app.pcpad import (DRAWN_RGBA, MARKER_RGBA, PRESET_LABELS, PRESET_RGBA, SECTION_RGBA, PadRequest,
+from app.viewer.pcpad import (DRAWN_RGBA, MARKER_RGBA, PRESET_LABELS, PRESET_RGBA, SECTION_RGBA, PadRequest,
                        PadState)
 
 

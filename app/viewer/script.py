@@ -35,11 +35,11 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import MAX_POSITION_CM, UserError, number, shorten
-from app.interaction import BUTTON_NAMES, KEY_NAMES, LEFT
-from app.capture import check_formats
+from app.viewer.interaction import BUTTON_NAMES, KEY_NAMES, LEFT
+from app.viewer.capture import check_formats
 from app.jsonfile import read_json
-from app.pcpad import PadRequest, check_request
-from app.settings import MAX_FRAME_SETTING, check_setting
+from app.viewer.pcpad import PadRequest, check_request
+from app.viewer.settings import MAX_FRAME_SETTING, check_setting
 from engine.synth import MAX_ABS_SCORE
 
 SCRIPT_FPS = 60.0

@@ -1,4 +1,4 @@
-"""The ``hitpoint`` command. Each sub-command lives in its own ``app.cmd_*``
+"""The ``hitpoint`` command. Each sub-command lives in its own ``app.cli.*``
 module exposing ``register(cli)``; they import heavy libraries (numba, GL, imgui) only
 when they run, so that ``--help`` and a bad option answer at once."""
 from __future__ import annotations
@@ -7,7 +7,8 @@ import sys
 
 import typer
 
-from app import cmd_adapt, cmd_analyse, cmd_bench, cmd_render, cmd_shots, cmd_synth, cmd_view
+from app.cli import adapt as cmd_adapt, analyse as cmd_analyse, bench as cmd_bench, render as cmd_render
+from app.cli import shots as cmd_shots, synth as cmd_synth, view as cmd_view
 from app.errors import one_line
 
 cli = typer.Typer(add_completion=False, no_args_is_help=False,
@@ -23,7 +24,7 @@ def _default(ctx: typer.Context):
     """With no sub-command, open the viewer on the bundled library. Before any command
     that runs the engine: a note on stderr if its kernels compile for more than a moment."""
     if ctx.invoked_subcommand not in NO_ENGINE_COMMANDS:
-        from app import compile_note       # imports numba (~0.25 s): not for --help or `shots`
+        from app.cli import compile_note  # imports numba (~0.25 s): not for --help or `shots`
         compile_note.install()
     if ctx.invoked_subcommand is None:
         ctx.invoke(cmd_view.view)

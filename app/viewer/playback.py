@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.settings import ViewerSettings
-from app.state import AppState
-from app.update import choose, solver_ready
+from app.viewer.settings import ViewerSettings
+from app.viewer.state import AppState
+from app.viewer.update import choose, solver_ready
 
 
 def step(settings: ViewerSettings, state: AppState, dt: float) -> None:

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from app.errors import UserError, number, position, shorten
-from app.picking import TARGET_PLANE_Z, clamp_target
+from app.viewer.picking import TARGET_PLANE_Z, clamp_target
 from engine.adapt import AdaptSettings
 
 FALLOFF_RANGE = (20.0, 200.0)       # cm; the dissertation's useful band is 70-110

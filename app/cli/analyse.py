@@ -9,7 +9,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 import typer
 
-from app.cmd_render import check_png_out, save_png_atomic
+from app.cli.render import check_png_out, save_png_atomic
 from app.errors import MAX_POSITION_CM, UserError, cli_errors, numbers, shorten
 from app.errors import falloff as falloff_cm
 from engine import choice, quat
@@ -234,7 +234,7 @@ def spearman(a, b) -> float:
 def source_direction(rig, shot) -> dict:
     """The source shot at its own hit point: face, ball direction and bat speed
     (central difference of the bat joint), and where the horizontal bat speed peaks."""
-    from app.cmd_adapt import hit_summary
+    from app.cli.adapt import hit_summary
     from engine import ballistics
     grot, gpos = shot.fk
     h, fps = shot.hit_frame, shot.clip.fps
@@ -257,7 +257,7 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd") ->
     the bowler) with the wrist at 0 and 2 DOF: face angle vs the source, face_to_ball,
     contact and the ball's azimuth/elevation (Fig. 2.6's data), a summary per shot
     and over all shots."""
-    from app.cmd_adapt import hit_summary
+    from app.cli.adapt import hit_summary
     from engine.adapt import AdaptSettings, Adapter  # numba (0.25 s): when the command runs
     from engine import face
 

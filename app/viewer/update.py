@@ -9,10 +9,10 @@ import time
 
 import numpy as np
 
-from app import pcpad
-from app.picking import TARGET_PLANE_Z, clamp_target
-from app.settings import ViewerSettings
-from app.state import AppState, Pose
+from app.viewer import pcpad
+from app.viewer.picking import TARGET_PLANE_Z, clamp_target
+from app.viewer.settings import ViewerSettings
+from app.viewer.state import AppState, Pose
 from engine import ballistics
 from engine.adapt import Adapter
 from engine.choice import BALL_START, choose_shot

@@ -17,23 +17,23 @@ import moderngl
 import numpy as np
 from imgui_bundle import imgui, implot
 
-from app import capture, playback
-from app.camera import OrbitCamera
-from app.compose import BACKGROUND, Compositor
-from app.imgui_gl import ImguiRenderer
-from app.interaction import Interaction
-from app.panel import PANEL_WIDTH, draw_panel
-from app.pcpad import PadRequest
+from app.viewer import capture, playback
+from app.viewer.camera import OrbitCamera
+from app.render.compose import BACKGROUND, Compositor
+from app.ui.imgui_gl import ImguiRenderer
+from app.viewer.interaction import Interaction
+from app.ui.panel import PANEL_WIDTH, draw_panel
+from app.viewer.pcpad import PadRequest
 from app.render.gl import flush
 from app.render.scene import SceneRenderer
-from app.settings import ViewerSettings
-from app.state import AppState, ExportNote
-from app.stats import FrameStats
-from app.submit import build_scene_view
-from app.timeline import TIMELINE_HEIGHT, draw_timeline
-from app.update import ball_at, default_target, load_library, pose_at, update
-from app.warmup import EngineWarmup
-from app.window import open_window
+from app.viewer.settings import ViewerSettings
+from app.viewer.state import AppState, ExportNote
+from app.viewer.stats import FrameStats
+from app.render.submit import build_scene_view
+from app.ui.timeline import TIMELINE_HEIGHT, draw_timeline
+from app.viewer.update import ball_at, default_target, load_library, pose_at, update
+from app.viewer.warmup import EngineWarmup
+from app.render.window import open_window
 from engine.skeleton import Clip
 
 
