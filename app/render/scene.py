@@ -57,6 +57,7 @@ class SceneView:
     skeleton_width_px: float = 3.0
     skeleton_on_top: bool = True  # skeleton lines ignore depth (visible inside the mesh)
     antialias: bool = False       # single-sampled targets (software GL): FXAA over the view
+    camera_moving: bool = False   # software GL: the cached static layer skips its 4x MSAA while orbiting
     detail: int | None = None     # the batsman's level of detail (0 finest); None: by his size on screen
 
 

@@ -2,7 +2,8 @@
 is drawn once into an offscreen framebuffer and reused.
 
 * ``StaticLayer``: sky, ground with the stumps' shadow, stadium and stumps, for one camera
-  and size, drawn with 4x MSAA and resolved, then copied into each frame (colour and depth);
+  and size, drawn with 4x MSAA (single-sampled while the camera moves) and resolved, then
+  copied into each frame (colour and depth);
 * ``GhostLayer``: the translucent ghost's nearest surface (colour with alpha, depth) for one
   camera and source pose, blended in over its screen box where it is nearer than the scene.
 """
@@ -68,11 +69,11 @@ class StaticLayer(Layer):
             return False
         samples = int(getattr(target, "samples", 0) or 0)
         size = tuple(view.size)
-        key = (size, samples, np.asarray(view.view, np.float32).tobytes(),
+        msaa = min(STATIC_MSAA, ctx.max_samples) if samples == 0 and not view.camera_moving else 0
+        key = (size, samples, msaa, np.asarray(view.view, np.float32).tobytes(),
                np.asarray(view.proj, np.float32).tobytes(), bool(view.show_pitch), frame.shadows)
         if key != self.key:
             fbo = self.framebuffer(ctx, size, samples, textures=False)
-            msaa = min(STATIC_MSAA, ctx.max_samples) if samples == 0 else 0
             if msaa > 1:        # drawn multisampled, resolved into the layer (colour and depth)
                 self.static_pass.draw(frame, self._msaa.framebuffer(ctx, size, msaa, False))
                 ctx.copy_framebuffer(fbo, self._msaa.fbo)
