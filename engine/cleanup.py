@@ -20,8 +20,7 @@ Two independent fixes, both compiled (numba, one call per clip; a whole
 Both keep locked DOFs and the rig's limits (measured as
 engine.ccd.limit_violation does), widened only to take in a pose the new
 motion already put outside them, so no joint ends further out than it was.
-Each returns the remaining error so the caller can show it. Without numba a
-minimal numpy version of each is used (right arm only; closed-form legs).
+Each returns the remaining error so the caller can show it.
 """
 from __future__ import annotations
 
@@ -110,8 +109,6 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
     first; where it cannot reach, both arms together (the torso leans, the left
     arm gives) with the bat held where it is, and where even that cannot reach,
     the bat is let go a little toward the right hand."""
-    if not HAVE_NUMBA:          # pragma: no cover - the minimal numpy solver
-        return _reattach_numpy(rig, skeleton, clip, src_global_rot, src_global_pos, iterations, tolerance)
     lh = rig.skeleton.parents[rig.bat_joint]
     rh = rig.chains["right_arm"].effector
     inv_src = quat.conjugate(src_global_rot[:, lh])
@@ -124,196 +121,27 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
     return np.linalg.norm(g_pos[:, rh] - t_pos, axis=-1), quat.angle_between(g_rot[:, rh], t_rot)
 
 
-def _reattach_numpy(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos,
-                    iterations: int = 60, tolerance: float = 0.01):
-    """The right arm alone by numpy CCD + least squares (no numba)."""
-    g_rot, g_pos = _fk(skeleton, clip)
-    t_pos, t_rot = right_hand_targets(rig, g_rot, g_pos, src_global_rot, src_global_pos)
-    chain = rig.chains["right_arm"]
-    hand = chain.effector
-    solve_chain_position(rig, skeleton, clip, chain.joints, hand, t_pos, g_rot, g_pos,
-                         iterations, tolerance)
-    orient_hand(rig, skeleton, clip, hand, t_rot)
-    grip_polish(rig, skeleton, clip, chain.joints, hand, t_pos, t_rot)
-    g_rot, g_pos = _fk(skeleton, clip)
-    err_cm = np.linalg.norm(g_pos[:, hand] - t_pos, axis=-1)
-    err_deg = quat.angle_between(g_rot[:, hand], t_rot)
-    return err_cm, err_deg
-
-
-GRIP_LENGTH = 10.0     # cm per radian: weighs the hand's orientation against its position
-
-
-def grip_polish(rig: Rig, skeleton: Skeleton, clip: Clip, joints: list[int], hand: int,
-                target_pos: np.ndarray, target_rot: np.ndarray, iterations: int = 20) -> None:
-    """Damped least squares on the hand's position and orientation together,
-    over the chain's free Euler angles, every frame at once (numeric Jacobian),
-    in place. Each frame keeps a step only if it lowers its residual; limits
-    (widened to the start pose) hold."""
-    F = clip.num_frames
-    joints = [j for j in joints if rig.dof[j].any()]
-    t = local_translations(skeleton, clip)
-    path = skeleton.chain(skeleton.names[joints[0]], skeleton.names[hand])
-    g_rot, g_pos = _fk(skeleton, clip)
-    top = skeleton.parents[path[0]]
-    base_rot, base_pos = g_rot[:, top], g_pos[:, top]
-    local = clip.local_rotations
-    euler = {j: _euler_in_limits(local[:, j], rig.limits[j]) for j in joints}
-    cols = [(j, c) for j in joints for c in range(3) if rig.dof[j, c]]
-    lo = np.array([min(rig.limits[j, c, 0], euler[j][:, c].min()) for j, c in cols])
-    hi = np.array([max(rig.limits[j, c, 1], euler[j][:, c].max()) for j, c in cols])
-    x = np.stack([euler[j][:, c] for j, c in cols], axis=1)          # (F, n) degrees
-
-    def residual(x):
-        rots = dict()
-        for j in joints:
-            e = euler[j].copy()
-            for k, (jj, c) in enumerate(cols):
-                if jj == j:
-                    e[:, c] = x[:, k]
-            rots[j] = quat.from_euler(e, "ZYX")
-        r, p = base_rot, base_pos
-        for j in path:
-            p = p + quat.rotate(r, t[:, j])
-            r = quat.mul(r, rots.get(j, local[:, j]))
-        rv = quat.log(quat.mul(target_rot, quat.conjugate(r)))
-        return np.concatenate([target_pos - p, GRIP_LENGTH * rv], axis=1), rots
-
-    res, _ = residual(x)
-    cost = np.sum(res ** 2, axis=1)
-    lam = np.full(F, 1.0)
-    h = 0.05                                                         # degrees
-    n = x.shape[1]
-    for _ in range(iterations):
-        Jac = np.empty((F, 6, n))
-        for k in range(n):
-            xk = x.copy()
-            xk[:, k] += h
-            Jac[:, :, k] = (residual(xk)[0] - res) / np.radians(h)
-        # Jac is d(target - effector)/dx, so the step that lowers the residual is -dx
-        A = np.einsum("fik,fil->fkl", Jac, Jac) + (lam ** 2)[:, None, None] * np.eye(n)
-        step = -np.linalg.solve(A, np.einsum("fik,fi->fk", Jac, res)[..., None])[..., 0]
-        x_new = np.clip(x + np.degrees(step), lo, hi)
-        res_new, _ = residual(x_new)
-        cost_new = np.sum(res_new ** 2, axis=1)
-        better = cost_new < cost
-        x = np.where(better[:, None], x_new, x)
-        res = np.where(better[:, None], res_new, res)
-        cost = np.where(better, cost_new, cost)
-        lam = np.where(better, np.maximum(lam * 0.5, 1e-3), lam * 4.0)
-        if np.all(cost < 1e-6) or np.all(lam > 1e4):
-            break
-    _, rots = residual(x)
-    for j in joints:
-        local[:, j] = rots[j]
-
-
-def orient_hand(rig: Rig, skeleton: Skeleton, clip: Clip, hand: int, target_rot: np.ndarray) -> None:
-    """Turn ``hand`` to ``target_rot (F, 4)`` without moving it: the twist about
-    the forearm (local x, along the bone) goes to the roll joint above the hand
-    when it has that one DOF, the swing to the hand; both within their limits."""
-    g_rot, _ = _fk(skeleton, clip)
-    off = quat.angle_between(g_rot[:, hand], target_rot) > 0.05       # frames already right stay as they are
-    if not off.any():
-        return
-    roll = int(skeleton.parents[hand])
-    local = quat.mul(quat.conjugate(g_rot[:, roll]), target_rot)      # hand local if it did it all
-    bone = skeleton.offsets[hand]
-    twist_axis = int(np.argmax(np.abs(bone)))
-    if rig.dof[roll].sum() == 1 and rig.dof[roll, 2 - twist_axis] and \
-            np.allclose(np.delete(bone, twist_axis), 0):
-        # q = twist * swing, twist about the bone axis: the roll joint takes the twist
-        t = np.zeros_like(local)
-        t[:, 0] = local[:, 0]
-        t[:, 1 + twist_axis] = local[:, 1 + twist_axis]
-        t = quat.normalize(t)
-        old = clip.local_rotations[:, roll].copy()
-        new = _constrain(rig, roll, quat.mul(old, t), old)
-        clip.local_rotations[:, roll] = np.where(off[:, None], new, old)
-        applied = quat.mul(quat.conjugate(old), clip.local_rotations[:, roll])
-        local = quat.mul(quat.conjugate(applied), local)
-    new = _constrain(rig, hand, local, clip.local_rotations[:, hand])
-    clip.local_rotations[:, hand] = np.where(off[:, None], new, clip.local_rotations[:, hand])
-
-
-def _euler_in_limits(local: np.ndarray, limits: np.ndarray) -> np.ndarray:
-    """ZYX Euler angles ``(F, 3)`` of ``local (F, 4)`` on whichever of the two
-    branches lies closer to ``limits (3, 2)`` (to_euler keeps the middle angle
-    in [-90, 90]; an elbow flexed by 120 degrees needs the other branch)."""
-    e1 = quat.to_euler(local, "ZYX")
-    e2 = (np.stack([e1[:, 0] + 180.0, 180.0 - e1[:, 1], e1[:, 2] + 180.0], -1) + 180.0) % 360.0 - 180.0
-
-    def outside(e):
-        return (np.maximum(limits[:, 0] - e, 0) + np.maximum(e - limits[:, 1], 0)).sum(-1)
-    return np.where((outside(e2) < outside(e1) - 1e-9)[:, None], e2, e1)
-
-
-def _constrain(rig: Rig, j: int, local: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """Local rotations ``(F, 4)`` of joint j with locked axes put back to ``reference``'s
-    and free axes clamped to the limits (widened to include the reference, so the
-    constraint never makes a pose worse than it was)."""
-    e = _euler_in_limits(local, rig.limits[j])
-    ref = _euler_in_limits(reference, rig.limits[j])
-    free = rig.dof[j]
-    e = np.where(free, e, ref)
-    lo = np.minimum(rig.limits[j, :, 0], ref)
-    hi = np.maximum(rig.limits[j, :, 1], ref)
-    e = np.where(free, np.clip(e, lo, hi), e)
-    return quat.from_euler(e, "ZYX")
-
-
-def solve_chain_position(rig: Rig, skeleton: Skeleton, clip: Clip, joints: list[int], effector: int,
-                         target: np.ndarray, g_rot=None, g_pos=None, iterations: int = 60,
-                         tolerance: float = 0.01) -> np.ndarray:
-    """Minimal CCD (position only) on a chain for every frame at once, in place.
-
-    ``joints`` root-most first; joints below the chain's root are moved only
-    through it. Returns the remaining (F,) error in cm.
-    """
-    if g_rot is None:
-        g_rot, g_pos = _fk(skeleton, clip)
-    t = local_translations(skeleton, clip)
-    path = skeleton.chain(skeleton.names[joints[0]], skeleton.names[effector])
-    top = skeleton.parents[path[0]]
-    base_rot, base_pos = g_rot[:, top], g_pos[:, top]
-    local = clip.local_rotations
-    movable = [j for j in joints if j != effector and rig.dof[j].any()]
-    reference = {j: local[:, j].copy() for j in movable}
-
-    def chain_fk():
-        r, p = base_rot, base_pos
-        rots, poss = {}, {}
-        for j in path:
-            p = p + quat.rotate(r, t[:, j])
-            r = quat.mul(r, local[:, j])
-            rots[j], poss[j] = r, p
-        return rots, poss
-
-    for _ in range(iterations):
-        rots, poss = chain_fk()
-        err = np.linalg.norm(poss[effector] - target, axis=-1)
-        if err.max() < tolerance:
-            break
-        for j in reversed(movable):
-            rots, poss = chain_fk()
-            parent_rot = rots[skeleton.parents[j]] if skeleton.parents[j] in rots else base_rot
-            r = quat.between(poss[effector] - poss[j], target - poss[j])
-            # new local = parent^-1 * r * global_j
-            new = quat.mul(quat.conjugate(parent_rot), quat.mul(r, rots[j]))
-            local[:, j] = _constrain(rig, j, quat.normalize(new), reference[j])
-    _, poss = chain_fk()
-    return np.linalg.norm(poss[effector] - target, axis=-1)
-
-
 # ---------------------------------------------------------------------- feet
-def planted_frames(foot_positions: np.ndarray, fps: float) -> np.ndarray:
-    """(F,) bool: the foot ``(F, 3)`` is slow and near its lowest height."""
+def planted_frames(foot_positions: np.ndarray, fps: float, height_tol: float = PLANT_HEIGHT,
+                   speed_tol: float = PLANT_SPEED) -> np.ndarray:
+    """(F,) bool: the foot joint ``(F, 3)`` is still (speed by central differences below
+    ``speed_tol`` cm/s) and down (within ``height_tol`` cm of its lowest height). The one
+    planted-foot detector: the clean-up, the shot authoring checks and the tests use it."""
     F = len(foot_positions)
     if F < 2:
         return np.ones(F, bool)
     speed = np.linalg.norm(np.gradient(foot_positions, axis=0), axis=1) * fps
-    low = foot_positions[:, 1] < foot_positions[:, 1].min() + PLANT_HEIGHT
-    return (speed < PLANT_SPEED) & low
+    low = foot_positions[:, 1] < foot_positions[:, 1].min() + height_tol
+    return (speed < speed_tol) & low
+
+
+def planted_runs(foot_positions: np.ndarray, fps: float, height_tol: float = PLANT_HEIGHT,
+                 speed_tol: float = PLANT_SPEED, min_frames: int = 3) -> list[tuple[int, int]]:
+    """Runs ``[a, b)`` of at least ``min_frames`` frames of :func:`planted_frames`."""
+    down = np.concatenate([[False], planted_frames(foot_positions, fps, height_tol, speed_tol), [False]])
+    edges = np.flatnonzero(np.diff(down.astype(np.int8)))
+    starts, ends = edges[::2], edges[1::2]
+    return [(int(a), int(b)) for a, b in zip(starts, ends) if b - a >= min_frames]
 
 
 def _plant_weight(planted: np.ndarray, blend: int = PLANT_BLEND) -> np.ndarray:
@@ -364,7 +192,7 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     Returns ``(error (F,), planted (F,))``: the remaining ankle error in cm
     (0 where not planted) and the planted frames."""
     chain = rig.chains[f"{side}_leg"]
-    hip, knee, ankle = chain.joints[0], chain.joints[1], chain.effector
+    ankle = chain.effector
     src_planted = planted_frames(src_global_pos[:, ankle], fps)
     planted = src_planted[source_frames]
     w = _plant_weight(planted)
@@ -377,372 +205,338 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     t_rot = src_global_rot[source_frames, ankle]
     target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
     target_rot = quat.slerp(g_rot[:, ankle], t_rot, w)
-    if HAVE_NUMBA:
-        _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, target, target_rot, sel)
-    else:                       # pragma: no cover - closed-form two-bone IK (ignores the hip's limits)
-        _two_bone(rig, skeleton, clip, hip, knee, ankle, g_rot, g_pos, target, target_rot, sel)
+    _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, target, target_rot, sel)
     g_rot, g_pos = _fk(skeleton, clip)
     err = np.where(planted, np.linalg.norm(g_pos[:, ankle] - t_pos, axis=-1), 0.0)
     return err, planted
 
 
-def _two_bone(rig, skeleton, clip, hip, knee, ankle, g_rot, g_pos, target, target_rot, sel):
-    """Hip swing + knee hinge + foot turn of the ``sel (F,)`` frames, in place."""
-    local = clip.local_rotations
-    a = np.linalg.norm(skeleton.offsets[knee])
-    b = np.linalg.norm(skeleton.offsets[ankle])
-    H = g_pos[sel, hip]
-    d = np.clip(np.linalg.norm(target[sel] - H, axis=-1), abs(a - b) + 1e-3, a + b - 1e-3)
-    # knee: a hinge about its local x; interior angle from the law of cosines
-    interior = np.arccos(np.clip((a * a + b * b - d * d) / (2 * a * b), -1, 1))
-    lo, hi = rig.limits[knee, 2]
-    sign = 1.0 if hi >= -lo else -1.0
-    flex = np.clip(sign * np.degrees(np.pi - interior), lo, hi)
-    knee_euler = np.zeros((sel.sum(), 3))
-    knee_euler[:, 2] = flex
-    local[sel, knee] = quat.from_euler(knee_euler, "ZYX")
-    # hip: swing the whole leg so the ankle points at the target
-    g_rot, g_pos = _fk(skeleton, clip)
-    swing = quat.between(g_pos[sel, ankle] - H, target[sel] - H)
-    new_hip_global = quat.mul(swing, g_rot[sel, hip])
-    local[sel, hip] = quat.mul(quat.conjugate(g_rot[sel, skeleton.parents[hip]]), new_hip_global)
-    # foot: the target orientation in the new shin frame
-    g_rot, g_pos = _fk(skeleton, clip)
-    local[sel, ankle] = quat.mul(quat.conjugate(g_rot[sel, knee]), target_rot[sel])
-
-
-
 # ------------------------------------------------- right hand, compiled path
-try:
-    from numba import njit
+from numba import njit
 
-    from .adapt import GRIP_CM, GRIP_RAD, ORIENT_TOL, _drop_stale_numba_cache, \
-        both_arms_solve, grip_solve, orient_finish
-    from .ccd import _q_at, _q_put, _v_at, ccd_frame, clamp_angle, from_euler_zyx, pick_branch, qconj, \
-        to_euler_zyx, chain_arrays, chain_fk, chain_scratch, limit_euler, q_angle, qmul, qrot, \
-        vadd, vnorm, vsub
-    HAVE_NUMBA = True
-except ImportError:             # pragma: no cover
-    HAVE_NUMBA = False
+from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, ORIENT_TOL, _drop_stale_numba_cache, \
+    both_arms_solve, grip_solve, orient_finish
+from .ccd import _q_at, _q_put, _v_at, ccd_frame, clamp_angle, from_euler_zyx, pick_branch, qconj, \
+    to_euler_zyx, chain_arrays, chain_fk, chain_scratch, limit_euler, q_angle, qmul, qrot, \
+    vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
 TURN_COST = 0.005               # ... and a degree of the bat turning
 WARM_ITER = 80                  # Newton steps from the previous frame's right arm
 
-if HAVE_NUMBA:
-    _drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py"))
+_drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py"))
 
-    @njit(cache=True)
-    def _fk_frames(parents, trans, local, out_rot, out_pos):
-        """Global rotations/positions of every frame (parents before children)."""
-        for f in range(local.shape[0]):
-            for j in range(parents.shape[0]):
-                p = parents[j]
-                q = (local[f, j, 0], local[f, j, 1], local[f, j, 2], local[f, j, 3])
-                t = (trans[f, j, 0], trans[f, j, 1], trans[f, j, 2])
-                if p < 0:
-                    g, x = q, t
-                else:
-                    pr = (out_rot[f, p, 0], out_rot[f, p, 1], out_rot[f, p, 2], out_rot[f, p, 3])
-                    g = qmul(pr, q)
-                    x = vadd((out_pos[f, p, 0], out_pos[f, p, 1], out_pos[f, p, 2]), qrot(pr, t))
-                for c in range(4):
-                    out_rot[f, j, c] = g[c]
-                for c in range(3):
-                    out_pos[f, j, c] = x[c]
-
-    @njit(cache=True)
-    def _leg_frames(local, euler, parent_rot, parent_pos, sel, lj, off, eoff, free, kind, lo, hi, w,
-                    ankle, a_free, a_lo, a_hi, target, target_rot, tol):
-        """Each selected frame: the leg chain ``lj`` (hip, knee, ankle) by CCD so
-        the ankle reaches ``target (F,3)``, then the ankle joint turned toward
-        ``target_rot (F,4)``; limits widened only to the start pose, locked
-        columns kept. In place on ``local (F,J,4)`` (``euler`` radians, limit branch)."""
-        n = lj.shape[0]
-        g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
-        loc = np.empty((n, 4))
-        eul = np.empty((n, 3))
-        src = np.empty((n, 3))
-        lo_w = np.empty((n, 3))
-        hi_w = np.empty((n, 3))
-        ea = np.empty((1, 3))
-        lo_a = np.empty((1, 3))
-        hi_a = np.empty((1, 3))
-        for f in range(local.shape[0]):
-            if not sel[f]:
-                continue
-            for k in range(n):
-                for c in range(4):
-                    loc[k, c] = local[f, lj[k], c]
-                for c in range(3):
-                    eul[k, c] = euler[f, lj[k], c]
-            _start_limits(lo, hi, eul, lo_w, hi_w)
-            src[:] = eul
-            prot = (parent_rot[f, 0], parent_rot[f, 1], parent_rot[f, 2], parent_rot[f, 3])
-            ppos = (parent_pos[f, 0], parent_pos[f, 1], parent_pos[f, 2])
-            ccd_frame(prot, ppos, off, eoff, loc, eul, src, free, kind, lo_w, hi_w, w,
-                      (target[f, 0], target[f, 1], target[f, 2]), tol, 200, g_rot, g_pos, cols, dofs,
-                      bak_l, bak_e)
-            chain_fk(prot, ppos, off, eoff, loc, g_rot, g_pos)
-            for k in range(n):
-                for c in range(4):
-                    local[f, lj[k], c] = loc[k, c]
-            # the foot: its target orientation in the new shin frame, within its limits
-            for c in range(3):
-                ea[0, c] = euler[f, ankle, c]
-            _start_limits(a_lo, a_hi, ea, lo_a, hi_a)
-            want = qmul(qconj(_q_at(g_rot, n - 2)), (target_rot[f, 0], target_rot[f, 1], target_rot[f, 2],
-                                                      target_rot[f, 3]))
-            e = pick_branch(to_euler_zyx(want), ea, ea, a_free, lo_a, hi_a, 0)
-            for c in range(3):
-                ea[0, c] = clamp_angle(e[c], lo_a[0, c], hi_a[0, c]) if a_free[0, c] else ea[0, c]
-            q = from_euler_zyx(ea[0, 0], ea[0, 1], ea[0, 2])
+@njit(cache=True)
+def _fk_frames(parents, trans, local, out_rot, out_pos):
+    """Global rotations/positions of every frame (parents before children)."""
+    for f in range(local.shape[0]):
+        for j in range(parents.shape[0]):
+            p = parents[j]
+            q = (local[f, j, 0], local[f, j, 1], local[f, j, 2], local[f, j, 3])
+            t = (trans[f, j, 0], trans[f, j, 1], trans[f, j, 2])
+            if p < 0:
+                g, x = q, t
+            else:
+                pr = (out_rot[f, p, 0], out_rot[f, p, 1], out_rot[f, p, 2], out_rot[f, p, 3])
+                g = qmul(pr, q)
+                x = vadd((out_pos[f, p, 0], out_pos[f, p, 1], out_pos[f, p, 2]), qrot(pr, t))
             for c in range(4):
-                local[f, ankle, c] = q[c]
-
-    @njit(cache=True)
-    def _start_limits(lo, hi, euler, out_lo, out_hi):
-        """The limits ``lo/hi (n,3)`` widened to take in the start angles
-        ``euler (n,3)`` (radians; a pose the new motion put outside its limits may
-        stay there or move back in, never further out). An angle outside is
-        first unwrapped to the side of the limits it is nearer on the circle
-        (as engine.ccd.limit_violation measures it), so the widening does not
-        take in the long way round."""
-        for k in range(lo.shape[0]):
+                out_rot[f, j, c] = g[c]
             for c in range(3):
-                a = euler[k, c]
-                if a > hi[k, c]:
-                    d = (lo[k, c] - a) % (2.0 * math.pi)       # below lo going down
-                    if d < a - hi[k, c]:
-                        a = lo[k, c] - d
-                elif a < lo[k, c]:
-                    d = (a - hi[k, c]) % (2.0 * math.pi)       # above hi going up
-                    if d < lo[k, c] - a:
-                        a = hi[k, c] + d
-                euler[k, c] = a
-                out_lo[k, c] = min(lo[k, c], a)
-                out_hi[k, c] = max(hi[k, c], a)
+                out_pos[f, j, c] = x[c]
 
-    @njit(cache=True)
-    def _grip_error(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff, loc_r,
-                    gr_rot, gr_pos, rel_p, rel_q):
-        """FK of both arms: (bat, right hand minus its grip target (3,), angle error rad)."""
-        nl = l_off.shape[0]
-        nr = r_off.shape[0]
-        bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
-        rh = chain_fk(_q_at(gl_rot, rp), _v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
-        g_lh = _q_at(gl_rot, nl - 1)
-        t_pos = vadd(_v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
-        t_rot = qmul(g_lh, rel_q)
-        return bat, vsub(rh, t_pos), q_angle(_q_at(gr_rot, nr - 1), t_rot)
-
-    @njit(cache=True)
-    def _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi):
-        """The right arm's free angles from the previous frame (within this frame's
-        limits), its locked ones this frame's."""
-        for k in range(loc_r.shape[0]):
+@njit(cache=True)
+def _leg_frames(local, euler, parent_rot, parent_pos, sel, lj, off, eoff, free, kind, lo, hi, w,
+                ankle, a_free, a_lo, a_hi, target, target_rot, tol):
+    """Each selected frame: the leg chain ``lj`` (hip, knee, ankle) by CCD so
+    the ankle reaches ``target (F,3)``, then the ankle joint turned toward
+    ``target_rot (F,4)``; limits widened only to the start pose, locked
+    columns kept. In place on ``local (F,J,4)`` (``euler`` radians, limit branch)."""
+    n = lj.shape[0]
+    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
+    loc = np.empty((n, 4))
+    eul = np.empty((n, 3))
+    src = np.empty((n, 3))
+    lo_w = np.empty((n, 3))
+    hi_w = np.empty((n, 3))
+    ea = np.empty((1, 3))
+    lo_a = np.empty((1, 3))
+    hi_a = np.empty((1, 3))
+    for f in range(local.shape[0]):
+        if not sel[f]:
+            continue
+        for k in range(n):
+            for c in range(4):
+                loc[k, c] = local[f, lj[k], c]
             for c in range(3):
-                eul_r[k, c] = min(max(prev_er[k, c], lo[k, c]), hi[k, c]) if free[k, c] else src_r[k, c]
-            _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+                eul[k, c] = euler[f, lj[k], c]
+        _start_limits(lo, hi, eul, lo_w, hi_w)
+        src[:] = eul
+        prot = (parent_rot[f, 0], parent_rot[f, 1], parent_rot[f, 2], parent_rot[f, 3])
+        ppos = (parent_pos[f, 0], parent_pos[f, 1], parent_pos[f, 2])
+        ccd_frame(prot, ppos, off, eoff, loc, eul, src, free, kind, lo_w, hi_w, w,
+                  (target[f, 0], target[f, 1], target[f, 2]), tol, 200, g_rot, g_pos, cols, dofs,
+                  bak_l, bak_e)
+        chain_fk(prot, ppos, off, eoff, loc, g_rot, g_pos)
+        for k in range(n):
+            for c in range(4):
+                local[f, lj[k], c] = loc[k, c]
+        # the foot: its target orientation in the new shin frame, within its limits
+        for c in range(3):
+            ea[0, c] = euler[f, ankle, c]
+        _start_limits(a_lo, a_hi, ea, lo_a, hi_a)
+        want = qmul(qconj(_q_at(g_rot, n - 2)), (target_rot[f, 0], target_rot[f, 1], target_rot[f, 2],
+                                                  target_rot[f, 3]))
+        e = pick_branch(to_euler_zyx(want), ea, ea, a_free, lo_a, hi_a, 0)
+        for c in range(3):
+            ea[0, c] = clamp_angle(e[c], lo_a[0, c], hi_a[0, c]) if a_free[0, c] else ea[0, c]
+        q = from_euler_zyx(ea[0, 0], ea[0, 1], ea[0, 2])
+        for c in range(4):
+            local[f, ankle, c] = q[c]
 
-    @njit(cache=True)
-    def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                  r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol, rounds,
-                  g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e, lh0, hold, gs_rot, gs_pos):
-        """Both arms onto bat and grip from the given start (in place); where the
-        grip is still out of reach, the bat is moved by what is missing and the
-        solve runs again (``rounds`` times at most). With ``hold``, the torso keeps
-        that lean and the left arm below it puts the bat back to its place and
-        the left hand to its orientation ``lh0`` (the two-arm solve holds the bat
-        only by one point, so it may turn it). Then the right arm alone polishes
-        the grip on the final left hand. Returns a score: the grip error (cm, with
-        10 cm per radian) plus BAT_COST per cm the bat moved and TURN_COST per
-        degree it turned."""
-        nl = l_off.shape[0]
-        handle = bat0
-        for _ in range(rounds):
-            both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                            r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, rel_p, rel_q,
-                            tol, ori_tol, 40)
-            bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
-                                     r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
-            if vnorm(d) < GRIP_CM and oe < GRIP_RAD:
-                break
-            handle = vadd(bat, d)
+@njit(cache=True)
+def _start_limits(lo, hi, euler, out_lo, out_hi):
+    """The limits ``lo/hi (n,3)`` widened to take in the start angles
+    ``euler (n,3)`` (radians; a pose the new motion put outside its limits may
+    stay there or move back in, never further out). An angle outside is
+    first unwrapped to the side of the limits it is nearer on the circle
+    (as engine.ccd.limit_violation measures it), so the widening does not
+    take in the long way round."""
+    for k in range(lo.shape[0]):
+        for c in range(3):
+            a = euler[k, c]
+            if a > hi[k, c]:
+                d = (lo[k, c] - a) % (2.0 * math.pi)       # below lo going down
+                if d < a - hi[k, c]:
+                    a = lo[k, c] - d
+            elif a < lo[k, c]:
+                d = (a - hi[k, c]) % (2.0 * math.pi)       # above hi going up
+                if d < lo[k, c] - a:
+                    a = hi[k, c] + d
+            euler[k, c] = a
+            out_lo[k, c] = min(lo[k, c], a)
+            out_hi[k, c] = max(hi[k, c], a)
+
+@njit(cache=True)
+def _grip_error(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff, loc_r,
+                gr_rot, gr_pos, rel_p, rel_q):
+    """FK of both arms: (bat, right hand minus its grip target (3,), angle error rad)."""
+    nl = l_off.shape[0]
+    nr = r_off.shape[0]
+    bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
+    rh = chain_fk(_q_at(gl_rot, rp), _v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
+    g_lh = _q_at(gl_rot, nl - 1)
+    t_pos = vadd(_v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
+    t_rot = qmul(g_lh, rel_q)
+    return bat, vsub(rh, t_pos), q_angle(_q_at(gr_rot, nr - 1), t_rot)
+
+@njit(cache=True)
+def _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi):
+    """The right arm's free angles from the previous frame (within this frame's
+    limits), its locked ones this frame's."""
+    for k in range(loc_r.shape[0]):
+        for c in range(3):
+            eul_r[k, c] = min(max(prev_er[k, c], lo[k, c]), hi[k, c]) if free[k, c] else src_r[k, c]
+        _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+
+@njit(cache=True)
+def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+              r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol, rounds,
+              g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e, lh0, hold, gs_rot, gs_pos):
+    """Both arms onto bat and grip from the given start (in place); where the
+    grip is still out of reach, the bat is moved by what is missing and the
+    solve runs again (``rounds`` times at most). With ``hold``, the torso keeps
+    that lean and the left arm below it puts the bat back to its place and
+    the left hand to its orientation ``lh0`` (the two-arm solve holds the bat
+    only by one point, so it may turn it). Then the right arm alone polishes
+    the grip on the final left hand. Returns a score: the grip error (cm, with
+    10 cm per radian) plus BAT_COST per cm the bat moved and TURN_COST per
+    degree it turned."""
+    nl = l_off.shape[0]
+    handle = bat0
+    for _ in range(rounds):
+        both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                        r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, rel_p, rel_q,
+                        tol, ori_tol, 40)
+        bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
+                                 r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
+        if vnorm(d) < GRIP_CM and oe < GRIP_RAD:
+            break
+        handle = vadd(bat, d)
+    chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
+    if hold:
+        a = rp + 1
+        grip_solve(_q_at(g_rot, rp), _v_at(g_pos, rp), l_off[a:], l_eoff, loc_l[a:], eul_l[a:], l_free[a:],
+                   lo_l[a:], hi_l[a:], handle, lh0, tol, ori_tol, 40, gs_rot, gs_pos, cols6, dofs, A6, x6, r6,
+                   bak_l, bak_e)
         chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
-        if hold:
-            a = rp + 1
-            grip_solve(_q_at(g_rot, rp), _v_at(g_pos, rp), l_off[a:], l_eoff, loc_l[a:], eul_l[a:], l_free[a:],
-                       lo_l[a:], hi_l[a:], handle, lh0, tol, ori_tol, 40, gs_rot, gs_pos, cols6, dofs, A6, x6, r6,
-                       bak_l, bak_e)
-            chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
+    pr = _q_at(g_rot, rp)
+    pp = _v_at(g_pos, rp)
+    g_lh = _q_at(g_rot, nl - 1)
+    t_pos = vadd(_v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
+    t_rot = qmul(g_lh, rel_q)
+    pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
+                        tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+    bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
+                             r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
+    turn = math.degrees(q_angle(_q_at(g_rot, nl - 1), lh0))
+    return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0)) + TURN_COST * turn
+
+@njit(cache=True)
+def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
+                 rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w, rp, rel_pos, rel_rot,
+                 tol, ori_tol, rounds):
+    """Every frame of ``local (F,J,4)`` (in place; ``euler (F,J,3)`` radians
+    on the limits' branch) gets its right hand onto its grip
+    ``rel_pos (F,3)`` / ``rel_rot (F,4)`` in the left hand's frame.
+    ``hips_*``: the global pose of the left chain's parent per frame."""
+    F = local.shape[0]
+    nl = lj.shape[0]
+    nr = rj.shape[0]
+    nmax = max(nl, nr)
+    g_rot = np.empty((nmax, 4))
+    g_pos = np.empty((nmax, 3))
+    gr_rot = np.empty((nr, 4))
+    gr_pos = np.empty((nr, 3))
+    cols = np.empty((3 * nmax, 3))
+    cols6 = np.empty((3 * nmax, 6))
+    dofs = np.empty((3 * nmax, 2), np.int64)
+    A6 = np.empty((6, 6))
+    x6 = np.empty(6)
+    r6 = np.empty(6)
+    bak_l = np.empty((nmax, 4))
+    bak_e = np.empty((nmax, 3))
+    loc_l = np.empty((nl, 4))
+    eul_l = np.empty((nl, 3))
+    lo_l = np.empty((nl, 3))
+    hi_l = np.empty((nl, 3))
+    loc_r = np.empty((nr, 4))
+    eul_r = np.empty((nr, 3))
+    src_r = np.empty((nr, 3))
+    lo_r = np.empty((nr, 3))
+    hi_r = np.empty((nr, 3))
+    bat_moved = np.zeros(F)
+    start_l = np.empty((nl, 4))
+    start_el = np.empty((nl, 3))
+    best_l = np.empty((nl, 4))
+    best_r = np.empty((nr, 4))
+    best_er = np.empty((nr, 3))
+    prev_er = np.empty((nr, 3))
+    ccd_r = np.empty((nr, 4))
+    ccd_er = np.empty((nr, 3))
+    gs_rot = np.empty((nl, 4))
+    gs_pos = np.empty((nl, 3))
+    prev_ok = 0
+    for f in range(F):
+        for k in range(nl):
+            for c in range(4):
+                loc_l[k, c] = local[f, lj[k], c]
+            for c in range(3):
+                eul_l[k, c] = euler[f, lj[k], c]
+        for k in range(nr):
+            for c in range(4):
+                loc_r[k, c] = local[f, rj[k], c]
+            for c in range(3):
+                eul_r[k, c] = euler[f, rj[k], c]
+                src_r[k, c] = eul_r[k, c]
+        _start_limits(l_lo, l_hi, eul_l, lo_l, hi_l)
+        _start_limits(r_lo, r_hi, eul_r, lo_r, hi_r)
+        for k in range(nr):
+            for c in range(3):
+                src_r[k, c] = eul_r[k, c]
+        prot = (hips_rot[f, 0], hips_rot[f, 1], hips_rot[f, 2], hips_rot[f, 3])
+        ppos = (hips_pos[f, 0], hips_pos[f, 1], hips_pos[f, 2])
+        rel_p = (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])
+        rel_q = (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])
+        bat0, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off, r_eoff,
+                                  loc_r, gr_rot, gr_pos, rel_p, rel_q)
+        lh0 = _q_at(g_rot, nl - 1)      # the left hand (and so the bat) as the new motion turns it
+        if vnorm(d) < tol and oe < ori_tol:
+            prev_er[:] = eul_r
+            prev_ok = 1
+            continue
+        # 1. the right arm alone. Frames follow each other: first from the previous frame's
+        # answer (so the arm moves smoothly instead of jumping between the several poses
+        # that hold the grip), else wrist position, the joints that only turn the hand, both
         pr = _q_at(g_rot, rp)
         pp = _v_at(g_pos, rp)
         g_lh = _q_at(g_rot, nl - 1)
         t_pos = vadd(_v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
         t_rot = qmul(g_lh, rel_q)
-        pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                            tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
-        bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
-                                 r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
-        turn = math.degrees(q_angle(_q_at(g_rot, nl - 1), lh0))
-        return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0)) + TURN_COST * turn
-
-    @njit(cache=True)
-    def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
-                     rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w, rp, rel_pos, rel_rot,
-                     tol, ori_tol, rounds):
-        """Every frame of ``local (F,J,4)`` (in place; ``euler (F,J,3)`` radians
-        on the limits' branch) gets its right hand onto its grip
-        ``rel_pos (F,3)`` / ``rel_rot (F,4)`` in the left hand's frame.
-        ``hips_*``: the global pose of the left chain's parent per frame."""
-        F = local.shape[0]
-        nl = lj.shape[0]
-        nr = rj.shape[0]
-        nmax = max(nl, nr)
-        g_rot = np.empty((nmax, 4))
-        g_pos = np.empty((nmax, 3))
-        gr_rot = np.empty((nr, 4))
-        gr_pos = np.empty((nr, 3))
-        cols = np.empty((3 * nmax, 3))
-        cols6 = np.empty((3 * nmax, 6))
-        dofs = np.empty((3 * nmax, 2), np.int64)
-        A6 = np.empty((6, 6))
-        x6 = np.empty(6)
-        r6 = np.empty(6)
-        bak_l = np.empty((nmax, 4))
-        bak_e = np.empty((nmax, 3))
-        loc_l = np.empty((nl, 4))
-        eul_l = np.empty((nl, 3))
-        lo_l = np.empty((nl, 3))
-        hi_l = np.empty((nl, 3))
-        loc_r = np.empty((nr, 4))
-        eul_r = np.empty((nr, 3))
-        src_r = np.empty((nr, 3))
-        lo_r = np.empty((nr, 3))
-        hi_r = np.empty((nr, 3))
-        bat_moved = np.zeros(F)
-        start_l = np.empty((nl, 4))
-        start_el = np.empty((nl, 3))
-        best_l = np.empty((nl, 4))
-        best_r = np.empty((nr, 4))
-        best_er = np.empty((nr, 3))
-        prev_er = np.empty((nr, 3))
-        ccd_r = np.empty((nr, 4))
-        ccd_er = np.empty((nr, 3))
-        gs_rot = np.empty((nl, 4))
-        gs_pos = np.empty((nl, 3))
-        prev_ok = 0
-        for f in range(F):
-            for k in range(nl):
-                for c in range(4):
-                    loc_l[k, c] = local[f, lj[k], c]
-                for c in range(3):
-                    eul_l[k, c] = euler[f, lj[k], c]
+        pe = 1e300
+        oe = 1e300
+        if prev_ok:
+            _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
+            pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
+                                tol, ori_tol, WARM_ITER, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+        if pe > GRIP_CM or oe > GRIP_RAD:
             for k in range(nr):
                 for c in range(4):
                     loc_r[k, c] = local[f, rj[k], c]
-                for c in range(3):
-                    eul_r[k, c] = euler[f, rj[k], c]
-                    src_r[k, c] = eul_r[k, c]
-            _start_limits(l_lo, l_hi, eul_l, lo_l, hi_l)
-            _start_limits(r_lo, r_hi, eul_r, lo_r, hi_r)
-            for k in range(nr):
-                for c in range(3):
-                    src_r[k, c] = eul_r[k, c]
-            prot = (hips_rot[f, 0], hips_rot[f, 1], hips_rot[f, 2], hips_rot[f, 3])
-            ppos = (hips_pos[f, 0], hips_pos[f, 1], hips_pos[f, 2])
-            rel_p = (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])
-            rel_q = (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])
-            bat0, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off, r_eoff,
-                                      loc_r, gr_rot, gr_pos, rel_p, rel_q)
-            lh0 = _q_at(g_rot, nl - 1)      # the left hand (and so the bat) as the new motion turns it
-            if vnorm(d) < tol and oe < ori_tol:
-                prev_er[:] = eul_r
-                prev_ok = 1
-                continue
-            # 1. the right arm alone. Frames follow each other: first from the previous frame's
-            # answer (so the arm moves smoothly instead of jumping between the several poses
-            # that hold the grip), else wrist position, the joints that only turn the hand, both
-            pr = _q_at(g_rot, rp)
-            pp = _v_at(g_pos, rp)
-            g_lh = _q_at(g_rot, nl - 1)
-            t_pos = vadd(_v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
-            t_rot = qmul(g_lh, rel_q)
-            pe = 1e300
-            oe = 1e300
-            if prev_ok:
-                _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
-                pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                                    tol, ori_tol, WARM_ITER, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
-            if pe > GRIP_CM or oe > GRIP_RAD:
-                for k in range(nr):
-                    for c in range(4):
-                        loc_r[k, c] = local[f, rj[k], c]
-                eul_r[:] = src_r
-                ccd_frame(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, r_w, t_pos,
-                          tol, 200, gr_rot, gr_pos, cols, dofs, bak_l, bak_e)
-                orient_finish(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, t_rot,
-                              gr_rot, gr_pos, 8, ori_tol)
-                pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                                    tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
-            if pe > GRIP_CM or oe > GRIP_RAD:
-                # 2. out of reach: both arms together (the torso leans, the left arm gives), from
-                # a few starts for the right arm: where the arm-alone solve left it, the new
-                # motion's pose, the previous frame's answer; the closest grip wins
-                for k in range(nl):
-                    for c in range(4):
-                        start_l[k, c] = local[f, lj[k], c]
-                    for c in range(3):
-                        start_el[k, c] = eul_l[k, c]
-                best = 1e300
-                ccd_r[:] = loc_r
-                ccd_er[:] = eul_r
-                for attempt in range(6):
-                    trial = attempt // 2
-                    for k in range(nl):
-                        for c in range(4):
-                            loc_l[k, c] = start_l[k, c]
-                        for c in range(3):
-                            eul_l[k, c] = start_el[k, c]
-                    if trial == 0:
-                        if not prev_ok:
-                            continue
-                        _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
-                    elif trial == 1:
-                        loc_r[:] = ccd_r
-                        eul_r[:] = ccd_er
-                    else:
-                        for k in range(nr):
-                            for c in range(4):
-                                loc_r[k, c] = local[f, rj[k], c]
-                        eul_r[:] = src_r
-                    score = _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                                      r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol,
-                                      rounds, g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e,
-                                      lh0, attempt % 2 == 0, gs_rot, gs_pos)
-                    if score < best:
-                        best = score
-                        best_l[:] = loc_l
-                        best_r[:] = loc_r
-                        best_er[:] = eul_r
-                    if score < GRIP_CM + GRIP_LENGTH * GRIP_RAD:
-                        break
-                loc_l[:] = best_l
-                loc_r[:] = best_r
-                eul_r[:] = best_er
-                bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
-                bat_moved[f] = vnorm(vsub(bat, bat0))
-                for k in range(nl):
-                    for c in range(4):
-                        local[f, lj[k], c] = loc_l[k, c]
-            for k in range(nr):
+            eul_r[:] = src_r
+            ccd_frame(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, r_w, t_pos,
+                      tol, 200, gr_rot, gr_pos, cols, dofs, bak_l, bak_e)
+            orient_finish(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, t_rot,
+                          gr_rot, gr_pos, 8, ori_tol)
+            pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
+                                tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+        if pe > GRIP_CM or oe > GRIP_RAD:
+            # 2. out of reach: both arms together (the torso leans, the left arm gives), from
+            # a few starts for the right arm: where the arm-alone solve left it, the new
+            # motion's pose, the previous frame's answer; the closest grip wins
+            for k in range(nl):
                 for c in range(4):
-                    local[f, rj[k], c] = loc_r[k, c]
-            prev_er[:] = eul_r
-            prev_ok = 1
-        return bat_moved
+                    start_l[k, c] = local[f, lj[k], c]
+                for c in range(3):
+                    start_el[k, c] = eul_l[k, c]
+            best = 1e300
+            ccd_r[:] = loc_r
+            ccd_er[:] = eul_r
+            for attempt in range(6):
+                trial = attempt // 2
+                for k in range(nl):
+                    for c in range(4):
+                        loc_l[k, c] = start_l[k, c]
+                    for c in range(3):
+                        eul_l[k, c] = start_el[k, c]
+                if trial == 0:
+                    if not prev_ok:
+                        continue
+                    _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
+                elif trial == 1:
+                    loc_r[:] = ccd_r
+                    eul_r[:] = ccd_er
+                else:
+                    for k in range(nr):
+                        for c in range(4):
+                            loc_r[k, c] = local[f, rj[k], c]
+                    eul_r[:] = src_r
+                score = _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
+                                  r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol,
+                                  rounds, g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e,
+                                  lh0, attempt % 2 == 0, gs_rot, gs_pos)
+                if score < best:
+                    best = score
+                    best_l[:] = loc_l
+                    best_r[:] = loc_r
+                    best_er[:] = eul_r
+                if score < GRIP_CM + GRIP_LENGTH * GRIP_RAD:
+                    break
+            loc_l[:] = best_l
+            loc_r[:] = best_r
+            eul_r[:] = best_er
+            bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
+            bat_moved[f] = vnorm(vsub(bat, bat0))
+            for k in range(nl):
+                for c in range(4):
+                    local[f, lj[k], c] = loc_l[k, c]
+        for k in range(nr):
+            for c in range(4):
+                local[f, rj[k], c] = loc_r[k, c]
+        prev_er[:] = eul_r
+        prev_ok = 1
+    return bat_moved
 
 
 def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, rel_rot: np.ndarray,
@@ -770,7 +564,7 @@ def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, 
 def _fk(skeleton: Skeleton, clip: Clip) -> tuple[np.ndarray, np.ndarray]:
     """:func:`engine.skeleton.clip_fk`, compiled (the clean-up runs FK a dozen times)."""
     parents = np.asarray(skeleton.parents, np.int64)
-    if not HAVE_NUMBA or np.any(parents >= np.arange(len(parents))):
+    if np.any(parents >= np.arange(len(parents))):
         return clip_fk(skeleton, clip)
     F, J = clip.num_frames, len(parents)
     g_rot, g_pos = np.empty((F, J, 4)), np.empty((F, J, 3))

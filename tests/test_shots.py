@@ -43,18 +43,9 @@ def bat_speed(rig, shot):
 
 
 def planted_runs(p, height_tol=0.5, speed_tol=6.0):
-    """Runs [a, b) of frames where a foot joint ``(F, 3)`` is down and still."""
-    v = np.linalg.norm(np.gradient(p, axis=0), axis=-1) * FPS
-    down = (p[:, 1] <= p[:, 1].min() + height_tol) & (v < speed_tol)
-    runs, a = [], None
-    for f, d in enumerate(list(down) + [False]):
-        if d and a is None:
-            a = f
-        elif not d and a is not None:
-            if f - a >= 3:
-                runs.append((a, f))
-            a = None
-    return runs
+    """Runs [a, b) of frames where a foot joint ``(F, 3)`` is down and still (the engine's detector)."""
+    from engine.cleanup import planted_runs as runs
+    return runs(p, FPS, height_tol, speed_tol)
 
 
 def test_nine_shots_with_manifest_fields(shots):

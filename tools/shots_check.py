@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine import quat
+from engine import cleanup, quat
 
 
 def _outside(a, lo, hi):
@@ -81,23 +81,10 @@ def right_in_left(rig, global_rotations, global_positions):
 
 def planted_runs(positions: np.ndarray, fps: float, height_tol: float = 0.5,
                  speed_tol: float = 6.0) -> list[tuple[int, int]]:
-    """Runs of frames ``[a, b)`` where a foot joint ``(F, 3)`` is down and still.
-
-    Down: within ``height_tol`` cm of its lowest height in the clip; still:
-    speed below ``speed_tol`` cm/s (central differences).
-    """
-    y = positions[:, 1]
-    v = np.linalg.norm(np.gradient(positions, axis=0), axis=-1) * fps
-    down = (y <= y.min() + height_tol) & (v < speed_tol)
-    runs, a = [], None
-    for f, d in enumerate(list(down) + [False]):
-        if d and a is None:
-            a = f
-        elif not d and a is not None:
-            if f - a >= 3:
-                runs.append((a, f))
-            a = None
-    return runs
+    """Runs of frames ``[a, b)`` where a foot joint ``(F, 3)`` is down (within ``height_tol``
+    cm of its lowest height) and still (below ``speed_tol`` cm/s): the engine's detector
+    with the authoring check's tighter tolerances."""
+    return cleanup.planted_runs(positions, fps, height_tol, speed_tol)
 
 
 def foot_drift(positions: np.ndarray, fps: float) -> float:
