@@ -23,9 +23,8 @@ import numpy as np
 from numba import njit
 
 from . import quat
-from .ccd import (KIND_MULTI, KIND_NONE, ChainArrays, _q_at, _q_put, _v_at, _v_put, ccd_frame,
-                  chain_arrays, chain_fk, chain_scratch, cross, clamp_angle, from_euler_zyx, hinge_axis, limit_euler,
-                  pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub)
+from .ccd import KIND_MULTI, KIND_NONE, ChainArrays, ccd_frame, chain_arrays, chain_fk, chain_scratch, hinge_axis, limit_euler
+from .quat_nb import q_at, q_put, v_at, v_put, cross, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations
 
@@ -42,8 +41,9 @@ def _drop_stale_numba_cache(module: str, depends: tuple[str, ...]) -> None:
         pass
 
 
-_drop_stale_numba_cache("adapt", ("ccd.py", "dls.py"))
-_drop_stale_numba_cache("dls", ("ccd.py",))
+_drop_stale_numba_cache("ccd", ("quat_nb.py",))
+_drop_stale_numba_cache("dls", ("ccd.py", "quat_nb.py"))
+_drop_stale_numba_cache("adapt", ("ccd.py", "dls.py", "quat_nb.py"))
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
@@ -87,7 +87,7 @@ def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, k
     joint's global rotation approaches target_rot. Returns the angle error (rad)."""
     n = offsets.shape[0]
     eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-    err = q_angle(_q_at(g_rot, n - 1), target_rot)
+    err = q_angle(q_at(g_rot, n - 1), target_rot)
     for _ in range(reps):
         if err < ori_tol:
             break
@@ -95,14 +95,14 @@ def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, k
             kd = kind[k]
             if kd == KIND_NONE:
                 continue
-            u = vsub(eff, _v_at(g_pos, k))
-            gp = prot if k == 0 else _q_at(g_rot, k - 1)
-            last = _q_at(g_rot, n - 1)
+            u = vsub(eff, v_at(g_pos, k))
+            gp = prot if k == 0 else q_at(g_rot, k - 1)
+            last = q_at(g_rot, n - 1)
             if kd == KIND_MULTI:
                 if vnorm(u) > 1e-6:
                     break
                 # the joint's global rotation that would put the last joint on target
-                want = qmul(target_rot, qmul(qconj(last), _q_at(g_rot, k)))
+                want = qmul(target_rot, qmul(qconj(last), q_at(g_rot, k)))
                 e = pick_branch(to_euler_zyx(qmul(qconj(gp), want)), euler, src_euler, free, lo, hi, k)
                 for c in range(3):
                     if free[k, c]:
@@ -121,9 +121,9 @@ def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, k
                     qe = (-qe[0], -qe[1], -qe[2], -qe[3])
                 theta = 2.0 * math.atan2(qe[1] * axis[0] + qe[2] * axis[1] + qe[3] * axis[2], qe[0])
                 euler[k, c] = clamp_angle(euler[k, c] + theta, lo[k, c], hi[k, c])
-            _q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+            q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
             eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-        err = q_angle(_q_at(g_rot, n - 1), target_rot)
+        err = q_angle(q_at(g_rot, n - 1), target_rot)
     return err
 
 
@@ -159,7 +159,7 @@ def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, da
         for c in range(3):
             if free[k, c]:
                 a = hinge_axis(prot, g_rot, euler, k, c)
-                col = cross(a, vsub(eff, _v_at(g_pos, k)))
+                col = cross(a, vsub(eff, v_at(g_pos, k)))
                 cols[m, 0] = col[0]
                 cols[m, 1] = col[1]
                 cols[m, 2] = col[2]
@@ -236,7 +236,7 @@ def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, da
             break
     for k in range(n):
         if free[k, 0] or free[k, 1] or free[k, 2]:
-            _q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+            q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
 
 
 @njit(cache=True)
@@ -248,11 +248,11 @@ def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_
     n = offsets.shape[0]
     length = GRIP_LENGTH
     eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-    res = _grip_residual(eff, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+    res = _grip_residual(eff, q_at(g_rot, n - 1), target_pos, target_rot, length, r)
     lam = 0.5
     for _ in range(max_iter):
         pe = vnorm(vsub(eff, target_pos))
-        oe = q_angle(_q_at(g_rot, n - 1), target_rot)
+        oe = q_angle(q_at(g_rot, n - 1), target_rot)
         if pe < tol and oe < ori_tol:
             break
         bak_l[:n] = local
@@ -260,12 +260,12 @@ def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_
         pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, lam, 0.25,
                   cols6, dofs, A, x)
         eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-        res2 = _grip_residual(eff2, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+        res2 = _grip_residual(eff2, q_at(g_rot, n - 1), target_pos, target_rot, length, r)
         if not res2 < res:
             local[:] = bak_l[:n]
             euler[:] = bak_e[:n]
             eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-            res = _grip_residual(eff, _q_at(g_rot, n - 1), target_pos, target_rot, length, r)
+            res = _grip_residual(eff, q_at(g_rot, n - 1), target_pos, target_rot, length, r)
             lam *= 4.0
             if lam > 1e4:
                 break
@@ -276,7 +276,7 @@ def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_
         lam = max(0.05, lam * 0.5)
         if gain < 1e-3 * res:       # stalled against a limit: as near as it gets
             break
-    return vnorm(vsub(eff, target_pos)), q_angle(_q_at(g_rot, n - 1), target_rot)
+    return vnorm(vsub(eff, target_pos)), q_angle(q_at(g_rot, n - 1), target_rot)
 
 
 @njit(cache=True)
@@ -311,14 +311,14 @@ def _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, 
     nl = l_off.shape[0]
     nr = r_off.shape[0]
     bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
-    rh = chain_fk(_q_at(gl_rot, rp), _v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
-    g_lh = _q_at(gl_rot, nl - 1)
-    t_pos = vadd(_v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
+    rh = chain_fk(q_at(gl_rot, rp), v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
+    g_lh = q_at(gl_rot, nl - 1)
+    t_pos = vadd(v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
     t_rot = qmul(g_lh, rel_q)
     for i in range(3):
         r[i] = bat_w * (handle[i] - bat[i])
     tmp = np.empty(6)
-    _grip_residual(rh, _q_at(gr_rot, nr - 1), t_pos, t_rot, length, tmp)
+    _grip_residual(rh, q_at(gr_rot, nr - 1), t_pos, t_rot, length, tmp)
     for i in range(6):
         r[3 + i] = tmp[i]
     t = 0.0
@@ -367,7 +367,7 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
         br[:] = loc_r
         bre[:] = eul_r
         bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
-        rh = _v_at(gr_pos, nr - 1)
+        rh = v_at(gr_pos, nr - 1)
         rv = (r[6] / L, r[7] / L, r[8] / L)
         rpos = (r[3], r[4], r[5])
         m = 0
@@ -376,7 +376,7 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
                 if not l_free[k, c]:
                     continue
                 a = hinge_axis(prot, gl_rot, eul_l, k, c)
-                pk = _v_at(gl_pos, k)
+                pk = v_at(gl_pos, k)
                 cb = cross(a, vsub(bat, pk))
                 if k <= rp:     # turns the right arm and its target together
                     cg = cross(a, rpos)
@@ -395,13 +395,13 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
                 dofs[m, 1] = k
                 dofs[m, 2] = c
                 m += 1
-        pr = _q_at(gl_rot, rp)
+        pr = q_at(gl_rot, rp)
         for k in range(nr):
             for c in range(3):
                 if not r_free[k, c]:
                     continue
                 a = hinge_axis(pr, gr_rot, eul_r, k, c)
-                cg = cross(a, vsub(rh, _v_at(gr_pos, k)))
+                cg = cross(a, vsub(rh, v_at(gr_pos, k)))
                 for i in range(3):
                     cols[m, i] = 0.0
                     cols[m, 3 + i] = cg[i]
@@ -471,10 +471,10 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
                 break
         for k in range(nl):
             if l_free[k, 0] or l_free[k, 1] or l_free[k, 2]:
-                _q_put(loc_l, k, from_euler_zyx(eul_l[k, 0], eul_l[k, 1], eul_l[k, 2]))
+                q_put(loc_l, k, from_euler_zyx(eul_l[k, 0], eul_l[k, 1], eul_l[k, 2]))
         for k in range(nr):
             if r_free[k, 0] or r_free[k, 1] or r_free[k, 2]:
-                _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+                q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
         t_pos2, res2 = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
                                       r_eoff, loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
         if not res2 < res:
@@ -584,7 +584,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
         o = qrot(r_f, offset)
         handle = (b_f[0] + blend * o[0], b_f[1] + blend * o[1], b_f[2] + blend * o[2])
         out_blend[i] = blend
-        _v_put(out_handle, i, handle)
+        v_put(out_handle, i, handle)
         # left arm: bat joint onto the handle
         for k in range(nl):
             for c in range(4):

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx, clamp_angle, other_branch, outside, pick_branch, q_at, v_at, q_put, v_put)
+
 
 KIND_NONE = 0          # no free DOF: never turned
 # 1, 2, 3: a single free Euler column (kind - 1 = column z, y, x)
@@ -31,224 +33,8 @@ KIND_MULTI = 4         # two or three free columns
 
 TOLERANCE = 0.001      # cm
 ITERATIONS = 200
-_TINY = 1e-9           # cm: a lever shorter than this cannot move the effector
 _STALL = 1e-7          # cm per sweep: slower progress than this means "as close as it gets"
 _STALL_REL = 0.0       # share of the error a sweep must gain (0: only _STALL; CCD may crawl near limits yet arrive)
-
-
-# --------------------------------------------------------------------------
-# scalar quaternion / vector helpers on tuples (no allocation inside numba)
-
-@njit(cache=True)
-def qmul(a, b):
-    return (a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-            a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-            a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-            a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0])
-
-
-@njit(cache=True)
-def qconj(q):
-    return (q[0], -q[1], -q[2], -q[3])
-
-
-@njit(cache=True)
-def cross(u, v):
-    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
-
-
-@njit(cache=True)
-def dot(u, v):
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-
-
-@njit(cache=True)
-def vsub(u, v):
-    return (u[0] - v[0], u[1] - v[1], u[2] - v[2])
-
-
-@njit(cache=True)
-def vadd(u, v):
-    return (u[0] + v[0], u[1] + v[1], u[2] + v[2])
-
-
-@njit(cache=True)
-def vnorm(u):
-    return math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
-
-
-@njit(cache=True)
-def qrot(q, v):
-    """Rotate vector v by unit quaternion q."""
-    u = (q[1], q[2], q[3])
-    t = cross(u, v)
-    t = (2.0 * t[0], 2.0 * t[1], 2.0 * t[2])
-    c = cross(u, t)
-    return (v[0] + q[0] * t[0] + c[0], v[1] + q[0] * t[1] + c[1], v[2] + q[0] * t[2] + c[2])
-
-
-@njit(cache=True)
-def qnormalize(q):
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    if n < 1e-300:
-        return (1.0, 0.0, 0.0, 0.0)
-    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
-
-
-@njit(cache=True)
-def axis_angle(axis, angle):
-    """Unit axis (tuple) and angle (rad) -> quaternion."""
-    s = math.sin(0.5 * angle)
-    return (math.cos(0.5 * angle), axis[0] * s, axis[1] * s, axis[2] * s)
-
-
-@njit(cache=True)
-def between(u, v):
-    """Shortest-arc rotation taking direction u onto v (identity if either is ~0)."""
-    nu = vnorm(u)
-    nv = vnorm(v)
-    if nu < _TINY or nv < _TINY:
-        return (1.0, 0.0, 0.0, 0.0)
-    u = (u[0] / nu, u[1] / nu, u[2] / nu)
-    v = (v[0] / nv, v[1] / nv, v[2] / nv)
-    w = 1.0 + dot(u, v)
-    if w < 1e-12:
-        # opposite: 180 degrees about any axis perpendicular to u
-        alt = (1.0, 0.0, 0.0) if abs(u[0]) < 0.9 else (0.0, 1.0, 0.0)
-        p = cross(u, alt)
-        return qnormalize((0.0, p[0], p[1], p[2]))
-    c = cross(u, v)
-    return qnormalize((w, c[0], c[1], c[2]))
-
-
-@njit(cache=True)
-def q_angle(a, b):
-    """Rotation angle (rad) between two unit quaternions."""
-    r = qmul(qconj(a), b)
-    s = math.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
-    return 2.0 * math.atan2(s, abs(r[0]))
-
-
-@njit(cache=True)
-def from_euler_zyx(z, y, x):
-    """R = Rz(z) Ry(y) Rx(x), radians -> quaternion."""
-    cz, sz = math.cos(0.5 * z), math.sin(0.5 * z)
-    cy, sy = math.cos(0.5 * y), math.sin(0.5 * y)
-    cx, sx = math.cos(0.5 * x), math.sin(0.5 * x)
-    # (cz + sz k)(cy + sy j)(cx + sx i)
-    w = cz * cy * cx + sz * sy * sx
-    qx = cz * cy * sx - sz * sy * cx
-    qy = cz * sy * cx + sz * cy * sx
-    qz = sz * cy * cx - cz * sy * sx
-    return (w, qx, qy, qz)
-
-
-@njit(cache=True)
-def to_euler_zyx(q):
-    """Quaternion -> (z, y, x) radians, the same branch as ``quat.to_euler(q, "ZYX")``."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    m00 = 1.0 - 2.0 * (y * y + z * z)
-    m10 = 2.0 * (x * y + w * z)
-    m20 = 2.0 * (x * z - w * y)
-    m21 = 2.0 * (y * z + w * x)
-    m22 = 1.0 - 2.0 * (x * x + y * y)
-    sb = min(1.0, max(-1.0, -m20))
-    b = math.atan2(sb, math.hypot(m22, m21))
-    if abs(sb) > 1.0 - 1e-10:
-        m01 = 2.0 * (x * y - w * z)
-        m11 = 1.0 - 2.0 * (x * x + z * z)
-        return (math.atan2(-m01, m11), b, 0.0)
-    return (math.atan2(m10, m00), b, math.atan2(m21, m22))
-
-
-@njit(cache=True)
-def wrap(a):
-    """Angle into (-pi, pi]."""
-    if -math.pi < a <= math.pi:
-        return a
-    a = (a + math.pi) % (2.0 * math.pi)      # in [0, 2 pi)
-    if a == 0.0:
-        return math.pi
-    return a - math.pi
-
-
-@njit(cache=True)
-def clamp_angle(a, lo, hi):
-    """Clamp an angle to [lo, hi] going to the bound that is nearer on the circle
-    (a turn just past +180 must not jump to the far lower limit)."""
-    if lo <= a <= hi:
-        return a
-    a = wrap(a)
-    if lo <= a <= hi:
-        return a
-    if abs(wrap(lo - a)) < abs(wrap(a - hi)):
-        return lo
-    return hi
-
-
-@njit(cache=True)
-def other_branch(e):
-    """The second Euler triple of the same rotation: (z + pi, pi - y, x + pi)."""
-    return (wrap(e[0] + math.pi), wrap(math.pi - e[1]), wrap(e[2] + math.pi))
-
-
-@njit(cache=True)
-def _outside(a, lo, hi):
-    """How far (rad) angle a lies outside [lo, hi] on the circle (0 inside)."""
-    if lo <= a <= hi:
-        return 0.0
-    return min(abs(wrap(lo - a)), abs(wrap(a - hi)))
-
-
-@njit(cache=True)
-def pick_branch(e, euler, src_euler, free, lo, hi, k):
-    """Of the two Euler triples of one rotation, the one that keeps the locked
-    columns nearest their source values and the free ones inside the limits;
-    on a tie the one nearest the joint's current angles. A ZYX middle angle is
-    only ever in [-90, 90] degrees, so an elbow bent past 90 needs the other
-    branch."""
-    e2 = other_branch(e)
-    s1 = 0.0
-    s2 = 0.0
-    d1 = 0.0
-    d2 = 0.0
-    for c in range(3):
-        if free[k, c]:
-            s1 += _outside(e[c], lo[k, c], hi[k, c])
-            s2 += _outside(e2[c], lo[k, c], hi[k, c])
-        else:
-            s1 += abs(wrap(e[c] - src_euler[k, c]))
-            s2 += abs(wrap(e2[c] - src_euler[k, c]))
-        d1 += abs(wrap(e[c] - euler[k, c]))
-        d2 += abs(wrap(e2[c] - euler[k, c]))
-    if s2 < s1 - 1e-12 or (abs(s2 - s1) <= 1e-12 and d2 < d1):
-        return e2
-    return e
-
-
-@njit(cache=True)
-def _q_at(arr, k):
-    return (arr[k, 0], arr[k, 1], arr[k, 2], arr[k, 3])
-
-
-@njit(cache=True)
-def _v_at(arr, k):
-    return (arr[k, 0], arr[k, 1], arr[k, 2])
-
-
-@njit(cache=True)
-def _q_put(arr, k, q):
-    arr[k, 0] = q[0]
-    arr[k, 1] = q[1]
-    arr[k, 2] = q[2]
-    arr[k, 3] = q[3]
-
-
-@njit(cache=True)
-def _v_put(arr, k, v):
-    arr[k, 0] = v[0]
-    arr[k, 1] = v[1]
-    arr[k, 2] = v[2]
 
 
 @njit(cache=True)
@@ -260,10 +46,10 @@ def chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos):
     r = prot
     p = ppos
     for k in range(offsets.shape[0]):
-        p = vadd(p, qrot(r, _v_at(offsets, k)))
-        r = qmul(r, _q_at(local, k))
-        _q_put(g_rot, k, r)
-        _v_put(g_pos, k, p)
+        p = vadd(p, qrot(r, v_at(offsets, k)))
+        r = qmul(r, q_at(local, k))
+        q_put(g_rot, k, r)
+        v_put(g_pos, k, p)
     return vadd(p, qrot(r, (eff_off[0], eff_off[1], eff_off[2])))
 
 
@@ -271,12 +57,12 @@ def chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos):
 def hinge_axis(prot, g_rot, euler, k, c):
     """World axis of Euler column c of chain joint k (turning that column alone
     rotates the joint's subtree about this axis through the joint)."""
-    gp = prot if k == 0 else _q_at(g_rot, k - 1)
+    gp = prot if k == 0 else q_at(g_rot, k - 1)
     if c == 0:
         return qrot(gp, (0.0, 0.0, 1.0))
     if c == 1:
         return qrot(qmul(gp, from_euler_zyx(euler[k, 0], 0.0, 0.0)), (0.0, 1.0, 0.0))
-    return qrot(_q_at(g_rot, k), (1.0, 0.0, 0.0))
+    return qrot(q_at(g_rot, k), (1.0, 0.0, 0.0))
 
 
 @njit(cache=True)
@@ -294,7 +80,7 @@ def jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, 
         for c in range(3):
             if free[k, c] and weight[k] > 0.0:
                 a = hinge_axis(prot, g_rot, euler, k, c)
-                col = cross(a, vsub(eff, _v_at(g_pos, k)))
+                col = cross(a, vsub(eff, v_at(g_pos, k)))
                 cols[m, 0] = col[0] * math.sqrt(weight[k])
                 cols[m, 1] = col[1] * math.sqrt(weight[k])
                 cols[m, 2] = col[2] * math.sqrt(weight[k])
@@ -369,7 +155,7 @@ def jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, 
             break
     for k in range(n):
         if weight[k] > 0.0 and (free[k, 0] or free[k, 1] or free[k, 2]):
-            _q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+            q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
 
 
 @njit(cache=True)
@@ -381,8 +167,8 @@ def ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle
         kd = kind[k]
         if kd == KIND_NONE:
             continue
-        p = _v_at(g_pos, k)
-        gp = prot if k == 0 else _q_at(g_rot, k - 1)
+        p = v_at(g_pos, k)
+        gp = prot if k == 0 else q_at(g_rot, k - 1)
         u = vsub(eff, p)
         v = vsub(handle, p)
         if kd < KIND_MULTI:
@@ -392,7 +178,7 @@ def ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle
             dv = dot(v, axis)
             up = (u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])
             vp = (v[0] - dv * axis[0], v[1] - dv * axis[1], v[2] - dv * axis[2])
-            if vnorm(up) < _TINY or vnorm(vp) < _TINY:
+            if vnorm(up) < TINY or vnorm(vp) < TINY:
                 continue
             delta = math.atan2(dot(axis, cross(up, vp)), dot(up, vp))
             old = euler[k, c]
@@ -405,7 +191,7 @@ def ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle
             qd = between(u, v)
             if qd[0] == 1.0:
                 continue
-            lc = qmul(qconj(gp), qmul(qd, _q_at(g_rot, k)))
+            lc = qmul(qconj(gp), qmul(qd, q_at(g_rot, k)))
             e = pick_branch(to_euler_zyx(lc), euler, src_euler, free, lo, hi, k)
             for c in range(3):
                 if free[k, c]:
@@ -413,10 +199,10 @@ def ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle
                 else:
                     euler[k, c] = src_euler[k, c]
             lq = from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
-        old_g = _q_at(g_rot, k)
+        old_g = q_at(g_rot, k)
         new_g = qmul(gp, lq)
-        _q_put(local, k, lq)
-        _q_put(g_rot, k, new_g)
+        q_put(local, k, lq)
+        q_put(g_rot, k, new_g)
         # the subtree turns rigidly about the joint by new_g * old_g^-1
         eff = vadd(p, qrot(qmul(new_g, qconj(old_g)), u))
         if vnorm(vsub(eff, handle)) < tol:
@@ -578,8 +364,8 @@ def _limit_euler_nb(local, lo, hi, out):
             s1 = 0.0
             s2 = 0.0
             for c in range(3):
-                s1 += _outside(e1[c], lo[j, c], hi[j, c])
-                s2 += _outside(e2[c], lo[j, c], hi[j, c])
+                s1 += outside(e1[c], lo[j, c], hi[j, c])
+                s2 += outside(e2[c], lo[j, c], hi[j, c])
             e = e2 if s2 < s1 - 1e-11 else e1
             out[i, j, 0] = e[0]
             out[i, j, 1] = e[1]

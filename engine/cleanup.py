@@ -216,16 +216,15 @@ from numba import njit
 
 from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, ORIENT_TOL, _drop_stale_numba_cache, \
     both_arms_solve, grip_solve, orient_finish
-from .ccd import _q_at, _q_put, _v_at, ccd_frame, clamp_angle, from_euler_zyx, pick_branch, qconj, \
-    to_euler_zyx, chain_arrays, chain_fk, chain_scratch, limit_euler, q_angle, qmul, qrot, \
-    vadd, vnorm, vsub
+from .ccd import ccd_frame, chain_arrays, chain_fk, chain_scratch, limit_euler
+from .quat_nb import q_at, q_put, v_at, clamp_angle, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
 TURN_COST = 0.005               # ... and a degree of the bat turning
 WARM_ITER = 80                  # Newton steps from the previous frame's right arm
 
-_drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py"))
+_drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py", "quat_nb.py"))
 
 @njit(cache=True)
 def _fk_frames(parents, trans, local, out_rot, out_pos):
@@ -286,7 +285,7 @@ def _leg_frames(local, euler, parent_rot, parent_pos, sel, lj, off, eoff, free, 
         for c in range(3):
             ea[0, c] = euler[f, ankle, c]
         _start_limits(a_lo, a_hi, ea, lo_a, hi_a)
-        want = qmul(qconj(_q_at(g_rot, n - 2)), (target_rot[f, 0], target_rot[f, 1], target_rot[f, 2],
+        want = qmul(qconj(q_at(g_rot, n - 2)), (target_rot[f, 0], target_rot[f, 1], target_rot[f, 2],
                                                   target_rot[f, 3]))
         e = pick_branch(to_euler_zyx(want), ea, ea, a_free, lo_a, hi_a, 0)
         for c in range(3):
@@ -325,11 +324,11 @@ def _grip_error(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_e
     nl = l_off.shape[0]
     nr = r_off.shape[0]
     bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
-    rh = chain_fk(_q_at(gl_rot, rp), _v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
-    g_lh = _q_at(gl_rot, nl - 1)
-    t_pos = vadd(_v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
+    rh = chain_fk(q_at(gl_rot, rp), v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
+    g_lh = q_at(gl_rot, nl - 1)
+    t_pos = vadd(v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
     t_rot = qmul(g_lh, rel_q)
-    return bat, vsub(rh, t_pos), q_angle(_q_at(gr_rot, nr - 1), t_rot)
+    return bat, vsub(rh, t_pos), q_angle(q_at(gr_rot, nr - 1), t_rot)
 
 @njit(cache=True)
 def _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi):
@@ -338,7 +337,7 @@ def _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi):
     for k in range(loc_r.shape[0]):
         for c in range(3):
             eul_r[k, c] = min(max(prev_er[k, c], lo[k, c]), hi[k, c]) if free[k, c] else src_r[k, c]
-        _q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
+        q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
 
 @njit(cache=True)
 def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
@@ -367,20 +366,20 @@ def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
     chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
     if hold:
         a = rp + 1
-        grip_solve(_q_at(g_rot, rp), _v_at(g_pos, rp), l_off[a:], l_eoff, loc_l[a:], eul_l[a:], l_free[a:],
+        grip_solve(q_at(g_rot, rp), v_at(g_pos, rp), l_off[a:], l_eoff, loc_l[a:], eul_l[a:], l_free[a:],
                    lo_l[a:], hi_l[a:], handle, lh0, tol, ori_tol, 40, gs_rot, gs_pos, cols6, dofs, A6, x6, r6,
                    bak_l, bak_e)
         chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
-    pr = _q_at(g_rot, rp)
-    pp = _v_at(g_pos, rp)
-    g_lh = _q_at(g_rot, nl - 1)
-    t_pos = vadd(_v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
+    pr = q_at(g_rot, rp)
+    pp = v_at(g_pos, rp)
+    g_lh = q_at(g_rot, nl - 1)
+    t_pos = vadd(v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
     t_rot = qmul(g_lh, rel_q)
     pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
                         tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
     bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
                              r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
-    turn = math.degrees(q_angle(_q_at(g_rot, nl - 1), lh0))
+    turn = math.degrees(q_angle(q_at(g_rot, nl - 1), lh0))
     return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0)) + TURN_COST * turn
 
 @njit(cache=True)
@@ -451,7 +450,7 @@ def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_
         rel_q = (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])
         bat0, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off, r_eoff,
                                   loc_r, gr_rot, gr_pos, rel_p, rel_q)
-        lh0 = _q_at(g_rot, nl - 1)      # the left hand (and so the bat) as the new motion turns it
+        lh0 = q_at(g_rot, nl - 1)      # the left hand (and so the bat) as the new motion turns it
         if vnorm(d) < tol and oe < ori_tol:
             prev_er[:] = eul_r
             prev_ok = 1
@@ -459,10 +458,10 @@ def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_
         # 1. the right arm alone. Frames follow each other: first from the previous frame's
         # answer (so the arm moves smoothly instead of jumping between the several poses
         # that hold the grip), else wrist position, the joints that only turn the hand, both
-        pr = _q_at(g_rot, rp)
-        pp = _v_at(g_pos, rp)
-        g_lh = _q_at(g_rot, nl - 1)
-        t_pos = vadd(_v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
+        pr = q_at(g_rot, rp)
+        pp = v_at(g_pos, rp)
+        g_lh = q_at(g_rot, nl - 1)
+        t_pos = vadd(v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
         t_rot = qmul(g_lh, rel_q)
         pe = 1e300
         oe = 1e300

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .ccd import (ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, chain_fk, chain_scratch,
-                  jacobian_step, limit_euler, vnorm, vsub)
+from .ccd import ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, chain_fk, chain_scratch, jacobian_step, limit_euler
+from .quat_nb import vnorm, vsub
 
 DAMPING = 1.0           # cm
 MAX_STEP = 0.25         # rad per iteration and DOF
