@@ -10,7 +10,7 @@ import numpy as np
 
 from app.errors import UserError, number, position, shorten
 from app.viewer.picking import TARGET_PLANE_Z, clamp_target
-from engine.adapt import AdaptSettings
+from engine.adapt import SOLVERS, AdaptSettings
 
 FALLOFF_RANGE = (20.0, 200.0)       # cm; the dissertation's useful band is 70-110
 FALLOFF_BAND = (70.0, 110.0)
@@ -20,7 +20,6 @@ SPEED_RANGE = (0.05, 4.0)
 RENDER_SCALE_RANGE = (0.4, 1.0)     # 3D view resolution / window resolution (slow GPUs)
 SLOW_MOTION_FACTOR = 0.25
 GHOST_MODES = ("off", "mesh", "skeleton")
-SOLVERS = ("ccd", "dls")
 WRIST_DOFS = (0, 2)
 MAX_FRAME_SETTING = 1e6             # a playback frame far past any shot (playback clamps it to the shot)
 MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
@@ -49,13 +48,13 @@ class Overlays:
 
 @dataclass
 class ViewerSettings:
-    # engine (engine.adapt.AdaptSettings)
-    falloff: float = 90.0
-    wrist_dof: int = 0
-    solver: str = "ccd"
-    iterations: int = 200
-    tolerance: float = 0.001
-    fix_right_hand: bool = True
+    # engine: the defaults are engine.adapt.AdaptSettings'
+    falloff: float = AdaptSettings.falloff
+    wrist_dof: int = AdaptSettings.wrist_dof
+    solver: str = AdaptSettings.solver
+    iterations: int = AdaptSettings.iterations
+    tolerance: float = AdaptSettings.tolerance
+    fix_right_hand: bool = AdaptSettings.fix_right_hand
     # scene
     target: np.ndarray = field(default_factory=lambda: np.array([0.0, 60.0, TARGET_PLANE_Z]))
     pinned_shot: str | None = None  # None: chosen by the ball path
@@ -76,11 +75,12 @@ class ViewerSettings:
 
     def sanitise(self) -> None:
         """Clamp everything into range (scripts and sliders can send anything)."""
-        self.falloff = _clamp(_finite(self.falloff, 90.0), *FALLOFF_RANGE)
-        self.wrist_dof = 2 if int(_finite(self.wrist_dof, 0)) == 2 else 0
-        self.solver = self.solver if self.solver in SOLVERS else "ccd"
-        self.iterations = int(_clamp(_finite(self.iterations, 200), *ITERATIONS_RANGE))
-        self.tolerance = _clamp(_finite(self.tolerance, 1e-3), *TOLERANCE_RANGE)
+        d = AdaptSettings
+        self.falloff = _clamp(_finite(self.falloff, d.falloff), *FALLOFF_RANGE)
+        self.wrist_dof = 2 if int(_finite(self.wrist_dof, d.wrist_dof)) == 2 else 0
+        self.solver = self.solver if self.solver in SOLVERS else d.solver
+        self.iterations = int(_clamp(_finite(self.iterations, d.iterations), *ITERATIONS_RANGE))
+        self.tolerance = _clamp(_finite(self.tolerance, d.tolerance), *TOLERANCE_RANGE)
         self.speed = _clamp(_finite(self.speed, 1.0), *SPEED_RANGE)
         self.frame = float(max(_finite(self.frame, 0.0), 0.0))
         self.render_scale = _clamp(_finite(self.render_scale, 1.0), *RENDER_SCALE_RANGE)
