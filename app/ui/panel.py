@@ -210,13 +210,40 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
         if state.desired_hit_point is not None:
             d = state.desired_hit_point
             rows.append(("desired hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))
+        rows += _impact_rows(r)
         for label, value in rows:
             imgui.table_next_row()
             imgui.table_next_column()
             imgui.text_colored(DIM, label)
             imgui.table_next_column()
-            imgui.text(value)
+            if label == "ball meets bat" and r.contact != "face":
+                imgui.text_colored(ERROR_COLOR, value)     # the back or the edge of the bat: say so
+            else:
+                imgui.text(value)
         imgui.end_table()
+
+
+def _impact_rows(r) -> list[tuple[str, str]]:
+    """The hit as a batsman would judge it: which part of the bat meets the ball, how far
+    the face turned from the source's, where the ball goes (DESIGN.md's azimuth)."""
+    if not r.contact:
+        return []
+    return [("ball meets bat", f"{r.contact} (cos {r.face_to_ball:+.2f})"),
+            ("face vs source", f"{r.face_angle_deg:.1f} deg"),
+            ("ball goes to", f"{r.ball_azimuth_deg:+.0f} deg {field_region(r.ball_azimuth_deg)}"),
+            ("ball rises", f"{r.ball_elevation_deg:+.0f} deg")]
+
+
+def field_region(azimuth_deg: float) -> str:
+    """A right-hander's fielding region for a ball's azimuth (0 straight back past the
+    bowler, positive toward the off side)."""
+    a = (azimuth_deg + 180.0) % 360.0 - 180.0
+    for limit, name in ((-160, "behind, leg side"), (-115, "fine leg"), (-80, "square leg"),
+                        (-25, "mid-wicket"), (-8, "mid-on"), (8, "straight"), (25, "mid-off"),
+                        (75, "cover"), (110, "point"), (160, "third man")):
+        if a < limit:
+            return name
+    return "behind, off side"
 
 
 def _blend_plot(settings: ViewerSettings, state: AppState) -> None:

@@ -21,6 +21,11 @@ class Readouts:
     grip_error_cm: float = float("nan")    # right hand vs source grip, this frame
     grip_error_deg: float = float("nan")
     max_grip_error_cm: float = float("nan")
+    contact: str = ""                       # what the ball met at the hit frame: "face" | "edge" | "back"
+    face_to_ball: float = float("nan")      # cosine of the face normal and the direction toward the ball
+    face_angle_deg: float = float("nan")    # the adapted face against the source's, at the hit frame
+    ball_azimuth_deg: float = float("nan")  # where the ball goes (DESIGN.md: 0 straight, + off side)
+    ball_elevation_deg: float = float("nan")
     engine_ms: float = 0.0                  # engine time spent this frame
     solve_ms: float = 0.0                   # last whole-shot solve
     render_ms: float = 0.0
