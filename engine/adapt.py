@@ -50,6 +50,13 @@ GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation aga
 GRIP_CM = 0.05          # right hand further than this from its grip ...
 GRIP_RAD = math.radians(0.5)  # ... or turned more than this: solve both arms together
 SOLVERS = ("ccd", "dls")
+TWISTS = ("follow", "lead")
+TWIST_COLUMN = 2        # ZYX Euler columns z, y, x: x is the twist about the bone in the arms
+
+
+def twist_only(free: np.ndarray) -> np.ndarray:
+    """(n,) bool: the chain joints ``free (n, 3)`` whose one free axis is the twist."""
+    return (free.sum(axis=1) == 1) & free[:, TWIST_COLUMN]
 
 
 @dataclass
@@ -60,6 +67,12 @@ class AdaptSettings:
     iterations: int = 200
     tolerance: float = 0.001     # cm
     fix_right_hand: bool = True
+    # CCD only. "follow": the left arm's twist-only (roll) joints keep the source's twist
+    # and the swing joints reach the ball; "lead": CCD turns them too, which spins the bat
+    # about its handle (9 shots x 15 offsets, wrist locked: face turned up to 153 deg, p90
+    # 30, against 40 and 25 when they follow). DLS spreads the motion by its stiffness
+    # weights and keeps the face already (max 34 deg), and needs the twist to reach.
+    twist: str = "follow"
 
 
 @dataclass
@@ -723,6 +736,8 @@ def check_settings(s: AdaptSettings) -> None:
         raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {s.solver!r}")
     if s.wrist_dof not in (0, 2):
         raise ValueError(f"wrist DOF must be 0 or 2, got {s.wrist_dof}")
+    if s.twist not in TWISTS:
+        raise ValueError(f"twist must be one of {', '.join(TWISTS)}, got {s.twist!r}")
     if not (math.isfinite(s.falloff) and s.falloff > 0):
         raise ValueError(f"falloff must be a positive number of cm, got {s.falloff}")
     if not (math.isfinite(s.tolerance) and s.tolerance > 0):
@@ -808,15 +823,20 @@ class Adapter:
         return self._blend_cache[1]
 
     def _chain_args(self, settings: AdaptSettings) -> tuple:
-        key = (settings.wrist_dof, settings.solver)
+        key = (settings.wrist_dof, settings.solver, settings.twist)
         if key not in self._chains:
             out = []
             for name, wd in (("left_arm", settings.wrist_dof), ("right_arm", None)):
                 ch: ChainArrays = chain_arrays(self.rig, name, wd)
                 n = len(ch.joints)
                 w = ch.polish_weight if settings.solver == "ccd" else 1.0 / default_stiffness(n)
-                out += [ch.joints, ch.offsets, ch.eff_off, ch.free, ch.kind, ch.lo, ch.hi,
-                        np.ascontiguousarray(w, float)]
+                free, kind = ch.free, ch.kind
+                if name == "left_arm" and settings.solver == "ccd" and settings.twist == "follow":
+                    # locked, the source's twist is put back after every step
+                    roll = twist_only(free)
+                    free, kind = free & ~roll[:, None], np.where(roll, KIND_NONE, kind)
+                out += [ch.joints, ch.offsets, ch.eff_off, np.ascontiguousarray(free), np.ascontiguousarray(kind),
+                        ch.lo, ch.hi, np.ascontiguousarray(w, float)]
             self._chains[key] = tuple(out)
         return self._chains[key]
 

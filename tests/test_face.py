@@ -194,3 +194,32 @@ def test_analyse_directions_json_and_table():
     assert src["bat_speed_mps"] > 0
     t = _cli("analyse", "--directions", "--shot", "straight_drive")
     assert "straight_drive" in t and "rho(az, off)" in t and "all shots, 0 DOF" in t
+
+
+def test_ccd_keeps_the_face_when_the_roll_joints_follow(rig, library):
+    """Wrist locked, CCD (the defaults): over hit points moved up to 30 cm across and 15 cm
+    up or down, every shot whose source meets the ball with the face still does, the face
+    within 45 degrees of the source's; with the roll joints leading (the dissertation's
+    CCD) the README's cover-drive example meets the ball with the back of the bat."""
+    from engine import face
+    from engine.adapt import AdaptSettings, Adapter
+    from engine.choice import BALL_START
+    n_local = rig.bat["face_normal"]
+    for shot in library:
+        src_n = face.face_normal(shot.fk[0][shot.hit_frame], rig.bat_joint, n_local)
+        if face.contact(face.face_to_ball(src_n, BALL_START, shot.hit_point)) != "face":
+            continue                     # square cut and sweep: their sources hit with the back (issue 14)
+        adapter = Adapter(rig, shot)
+        for dx in (-30.0, -15.0, 15.0, 30.0):
+            for dy in (-15.0, 15.0):
+                p = shot.hit_point + (dx, dy, 0.0)
+                a = adapter.adapt(p, AdaptSettings())
+                g = a.global_rotations[shot.hit_frame]
+                cos = face.face_to_ball(face.face_normal(g, rig.bat_joint, n_local), BALL_START, a.desired_hit_point)
+                assert face.contact(cos) == "face", (shot.name, dx, dy, float(cos))
+                assert face.face_angle_deg(g, shot.fk[0][shot.hit_frame], rig.bat_joint, n_local) < 45.0
+    cover = next(s for s in library if s.name == "cover_drive")
+    a = Adapter(rig, cover).adapt((-70.0, 45.0, 215.0), AdaptSettings(twist="lead"))
+    g = a.global_rotations[cover.hit_frame]
+    cos = face.face_to_ball(face.face_normal(g, rig.bat_joint, n_local), BALL_START, a.desired_hit_point)
+    assert face.contact(cos) == "back"

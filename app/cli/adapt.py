@@ -22,13 +22,13 @@ WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 
 
 def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
-              out: Optional[Path] = None) -> dict:
+              twist="follow", out: Optional[Path] = None) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
     from engine.adapt import Adapter, AdaptSettings, check_settings  # numba (0.25 s): when the command runs
 
     if out is not None:
         check_out(out)
-    settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver)
+    settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver, twist=twist)
     check_settings(settings)
     rig = default_rig()
     shots = load_library(rig=rig)
@@ -124,7 +124,7 @@ def _write(out: Path, rig, shot, a) -> None:
 
 
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
-          "--solver": 1, "--out": 1}
+          "--solver": 1, "--twist": 1, "--out": 1}
 
 
 def parse_args(args: list[str]) -> dict:
@@ -144,7 +144,7 @@ def parse_args(args: list[str]) -> dict:
         i += 1 + (0 if inline else n)
 
     out = {"target": None, "shot_name": None, "hit": None, "falloff": 90.0, "wrist_dof": 0,
-           "solver": "ccd", "out": None}
+           "solver": "ccd", "twist": "follow", "out": None}
     if "--target" in got:
         out["target"] = position("--target", got["--target"])
     if "--hit" in got:
@@ -157,6 +157,11 @@ def parse_args(args: list[str]) -> dict:
         out["wrist_dof"] = number("--wrist-dof", got["--wrist-dof"][0], choices=WRIST_DOFS)
     if "--solver" in got:
         out["solver"] = got["--solver"][0]
+    if "--twist" in got:
+        from engine.adapt import TWISTS  # numba (0.25 s): only when the option is given
+        out["twist"] = got["--twist"][0]
+        if out["twist"] not in TWISTS:
+            raise UserError(f"--twist must be one of {', '.join(TWISTS)}, got {shorten(out['twist'])!r}")
     if "--out" in got:
         out["out"] = Path(got["--out"][0])
     return out
@@ -174,6 +179,9 @@ def register(cli: typer.Typer) -> None:
           --falloff CM        importance-blend falloff distance (default 90)
           --wrist-dof 0|2     left wrist locked (0, default) or 2 DOF
           --solver ccd|dls    IK solver (default ccd)
+          --twist follow|lead CCD: the left arm's roll joints keep the source's
+                              twist (follow, default: the face stays square) or
+                              are turned by CCD too (lead, the dissertation's)
           --out FILE          write the adapted shot (atomic): .bvh, .csv, .glb
                               or .gltf (skinned batsman + animation, metres)
         JSON keys: shot, hit_frame, source_hit_point, desired_hit_point,
