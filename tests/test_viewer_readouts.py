@@ -39,3 +39,23 @@ def test_field_regions_follow_the_azimuth_convention():
     assert field_region(-70.0) == "mid-wicket" and field_region(-140.0) == "fine leg"
     assert field_region(179.0) == field_region(-181.0 + 360.0)
     assert field_region(540.0) == field_region(180.0)
+
+
+def test_the_panel_twist_choice_reaches_the_engine(state):
+    """The viewer's 'arm rolls' choice is a real engine setting: it changes the engine key
+    (a re-solve), and with the rolls leading the README's cover-drive example meets the
+    ball with the back of the bat, with them following, the face."""
+    from engine import face
+    from engine.adapt import Adapter
+    from engine.choice import BALL_START
+    rig = state.rig
+    shot = next(s for s in state.shots if s.name == "cover_drive")
+    adapter = Adapter(rig, shot)
+    contacts = {}
+    for twist in ("follow", "lead"):
+        settings = ViewerSettings(pinned_shot="cover_drive", twist=twist)
+        a = adapter.adapt((-70.0, 45.0, 215.0), settings.adapt_settings())
+        n = face.face_normal(a.global_rotations[shot.hit_frame], rig.bat_joint, rig.bat["face_normal"])
+        contacts[twist] = face.contact(face.face_to_ball(n, BALL_START, a.desired_hit_point))
+    assert contacts == {"follow": "face", "lead": "back"}
+    assert ViewerSettings(twist="follow").engine_key() != ViewerSettings(twist="lead").engine_key()

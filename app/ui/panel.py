@@ -9,7 +9,7 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from app.viewer.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, RENDER_SCALE_RANGE,
-                          SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, ViewerSettings)
+                          SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TWISTS, ViewerSettings)
 from app.ui.padwidget import draw_pc_pad
 from app.viewer.state import AppState
 
@@ -128,6 +128,15 @@ def _solver_settings(settings: ViewerSettings) -> None:
         imgui.same_line()
         if imgui.radio_button(name.upper(), settings.solver == name):
             settings.solver = name
+    if settings.solver == "ccd":
+        imgui.text("arm rolls ")
+        for name in TWISTS:
+            imgui.same_line()
+            if imgui.radio_button(name, settings.twist == name):
+                settings.twist = name
+        if imgui.is_item_hovered():
+            imgui.set_tooltip("follow: the left arm's roll joints keep the source's twist, so the bat face\n"
+                              "stays square to the ball; lead: CCD turns them too (the dissertation's CCD)")
     changed, v = imgui.slider_int("iterations", settings.iterations, *ITERATIONS_RANGE)
     if changed:
         settings.iterations = v

@@ -10,7 +10,7 @@ import numpy as np
 
 from app.errors import UserError, number, position, shorten
 from app.viewer.picking import TARGET_PLANE_Z, clamp_target
-from engine.adapt import SOLVERS, AdaptSettings
+from engine.adapt import SOLVERS, TWISTS, AdaptSettings
 
 FALLOFF_RANGE = (20.0, 200.0)       # cm; the dissertation's useful band is 70-110
 FALLOFF_BAND = (70.0, 110.0)
@@ -26,7 +26,7 @@ MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
 # What ``set`` checks beyond the type: ranges and choices per key.
 SETTING_RANGES = {"falloff": FALLOFF_RANGE, "iterations": ITERATIONS_RANGE, "tolerance": TOLERANCE_RANGE,
                   "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING)}
-SETTING_CHOICES = {"solver": SOLVERS, "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
+SETTING_CHOICES = {"solver": SOLVERS, "twist": TWISTS, "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
 # Fields that are no setting of the user's: requests the loop consumes (scripts have the
 # screenshot, export and key events for them) and the overlay group as a whole.
 NOT_SETTABLE = ("screenshot_requested", "export_requested", "reload_requested", "overlays")
@@ -52,6 +52,7 @@ class ViewerSettings:
     falloff: float = AdaptSettings.falloff
     wrist_dof: int = AdaptSettings.wrist_dof
     solver: str = AdaptSettings.solver
+    twist: str = AdaptSettings.twist
     iterations: int = AdaptSettings.iterations
     tolerance: float = AdaptSettings.tolerance
     fix_right_hand: bool = AdaptSettings.fix_right_hand
@@ -79,6 +80,7 @@ class ViewerSettings:
         self.falloff = _clamp(_finite(self.falloff, d.falloff), *FALLOFF_RANGE)
         self.wrist_dof = 2 if int(_finite(self.wrist_dof, d.wrist_dof)) == 2 else 0
         self.solver = self.solver if self.solver in SOLVERS else d.solver
+        self.twist = self.twist if self.twist in TWISTS else d.twist
         self.iterations = int(_clamp(_finite(self.iterations, d.iterations), *ITERATIONS_RANGE))
         self.tolerance = _clamp(_finite(self.tolerance, d.tolerance), *TOLERANCE_RANGE)
         self.speed = _clamp(_finite(self.speed, 1.0), *SPEED_RANGE)
@@ -93,12 +95,12 @@ class ViewerSettings:
         """The engine's view of these settings (``engine.adapt.AdaptSettings``)."""
         return AdaptSettings(falloff=self.falloff, wrist_dof=self.wrist_dof, solver=self.solver,
                              iterations=self.iterations, tolerance=self.tolerance,
-                             fix_right_hand=self.fix_right_hand)
+                             fix_right_hand=self.fix_right_hand, twist=self.twist)
 
     def engine_key(self) -> tuple:
         """Everything the adaptation depends on; a change means re-solve."""
         return (tuple(np.round(self.target, 6)), self.pinned_shot, self.falloff, self.wrist_dof,
-                self.solver, self.iterations, self.tolerance, self.fix_right_hand)
+                self.solver, self.iterations, self.tolerance, self.fix_right_hand, self.twist)
 
     @property
     def playback_rate(self) -> float:
