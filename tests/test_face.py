@@ -223,3 +223,28 @@ def test_ccd_keeps_the_face_when_the_roll_joints_follow(rig, library):
     g = a.global_rotations[cover.hit_frame]
     cos = face.face_to_ball(face.face_normal(g, rig.bat_joint, n_local), BALL_START, a.desired_hit_point)
     assert face.contact(cos) == "back"
+
+
+@pytest.mark.parametrize("name", ["straight_drive", "cover_drive", "on_drive", "pull"])
+def test_a_requested_direction_is_met_with_the_face(rig, library, name):
+    """``engine.direction.aim`` sends the ball within REACHED_DEG of any direction inside
+    the shot's range, with the face, the bat on the hit point and the shot's first and
+    last frames as captured; a request beyond the range gets its nearest end, flagged."""
+    from engine import direction
+    from engine.choice import BALL_START
+    shot = next(s for s in library if s.name == name)
+    lo, hi = direction.aim(rig, shot, shot.hit_point, 0.0).range_deg
+    for request in (lo + 0.3 * (hi - lo), lo + 0.7 * (hi - lo)):
+        r = direction.aim(rig, shot, shot.hit_point, request)
+        a = r.adaptation
+        g = a.global_rotations[shot.hit_frame]
+        cos = face.face_to_ball(face.face_normal(g, rig.bat_joint, rig.bat["face_normal"]), BALL_START,
+                                a.desired_hit_point)
+        assert r.reached and abs(face.wrap_deg(r.azimuth_deg - request)) <= direction.REACHED_DEG
+        assert face.contact(cos) == "face" and a.bat_error_cm < 0.01
+        src = shot.clip.local_rotations
+        assert np.allclose(a.local_rotations[[0, -1]], src[[0, -1]], atol=1e-9)
+        assert abs(r.twist_deg) <= direction.MAX_TWIST_DEG + 1e-6
+    beyond = direction.aim(rig, shot, shot.hit_point, float(face.wrap_deg(lo - 40.0)))
+    if lo - 40.0 > -180.0 and hi - lo < 320.0:       # a range that does not wrap round
+        assert not beyond.reached and abs(beyond.azimuth_deg - lo) < 5.0

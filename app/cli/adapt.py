@@ -22,7 +22,7 @@ WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 
 
 def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
-              twist="follow", out: Optional[Path] = None) -> dict:
+              twist="follow", direction=None, out: Optional[Path] = None) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
     from engine.adapt import Adapter, AdaptSettings, check_settings  # numba (0.25 s): when the command runs
 
@@ -45,7 +45,13 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     adapter = Adapter(rig, shot)
     adapter.adapt(desired, settings)            # compile / load the kernels before timing
     t0 = time.perf_counter()
-    a = adapter.adapt(desired, settings)
+    aimed = None
+    if direction is None:
+        a = adapter.adapt(desired, settings)
+    else:
+        from engine.direction import aim
+        aimed = aim(rig, shot, desired, direction, settings)
+        a = aimed.adaptation
     solve_ms = (time.perf_counter() - t0) * 1e3
     if out is not None:
         _write(out, rig, shot, a)
@@ -65,6 +71,10 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         "max_grip_error_deg": round(float(a.grip_error_deg.max()), 4),
         "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
         **hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START, a.desired_hit_point),
+        **({} if aimed is None else {
+            "direction_requested_deg": round(aimed.requested_deg, 2), "direction_reached": aimed.reached,
+            "direction_range_deg": [round(v, 1) for v in aimed.range_deg],
+            "forearm_twist_deg": round(aimed.twist_deg, 2)}),
         "solve_ms": round(solve_ms, 3),
         "out": None if out is None else str(out),
     }
@@ -124,7 +134,7 @@ def _write(out: Path, rig, shot, a) -> None:
 
 
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
-          "--solver": 1, "--twist": 1, "--out": 1}
+          "--solver": 1, "--twist": 1, "--direction": 1, "--out": 1}
 
 
 def parse_args(args: list[str]) -> dict:
@@ -144,7 +154,7 @@ def parse_args(args: list[str]) -> dict:
         i += 1 + (0 if inline else n)
 
     out = {"target": None, "shot_name": None, "hit": None, "falloff": 90.0, "wrist_dof": 0,
-           "solver": "ccd", "twist": "follow", "out": None}
+           "solver": "ccd", "twist": "follow", "direction": None, "out": None}
     if "--target" in got:
         out["target"] = position("--target", got["--target"])
     if "--hit" in got:
@@ -162,6 +172,8 @@ def parse_args(args: list[str]) -> dict:
         out["twist"] = got["--twist"][0]
         if out["twist"] not in TWISTS:
             raise UserError(f"--twist must be one of {', '.join(TWISTS)}, got {shorten(out['twist'])!r}")
+    if "--direction" in got:
+        out["direction"] = number("--direction", got["--direction"][0], -180.0, 180.0)
     if "--out" in got:
         out["out"] = Path(got["--out"][0])
     return out
@@ -182,6 +194,11 @@ def register(cli: typer.Typer) -> None:
           --twist follow|lead CCD: the left arm's roll joints keep the source's
                               twist (follow, default: the face stays square) or
                               are turned by CCD too (lead, the dissertation's)
+          --direction AZ      send the ball this way (deg; 0 straight back past the
+                              bowler, + toward the off side) by turning the face
+                              (an extra left-forearm twist at the hit); out of
+                              the shot's reach: the closest it gives, and
+                              direction_reached false in the JSON
           --out FILE          write the adapted shot (atomic): .bvh, .csv, .glb
                               or .gltf (skinned batsman + animation, metres)
         JSON keys: shot, hit_frame, source_hit_point, desired_hit_point,
