@@ -202,6 +202,19 @@ def flight(global_rotations, global_positions, bat_joint: int, face_normal_local
                   float(face.azimuth_deg(v)), float(face.elevation_deg(v)))
 
 
+def shot_flight(rig, shot, global_rotations, global_positions, ball_start, hit_point,
+                duration: float = 3.0) -> tuple[Flight, float]:
+    """The ball after the hit of an adapted ``shot`` on ``rig`` (its bat's face normal and
+    axis, the shot's hit frame and rate), and the angle (deg) of the bat face at the hit
+    frame against the source's: what the viewer, ``adapt``'s JSON and the direction
+    search all report."""
+    h, bat, normal = shot.hit_frame, rig.bat_joint, rig.bat["face_normal"]
+    fl = flight(global_rotations, global_positions, bat, normal, h, shot.clip.fps, ball_start, hit_point,
+                rig.bat.get("axis"), duration=duration)
+    angle = face.face_angle_deg(np.asarray(global_rotations)[h], shot.fk[0][h], bat, normal)
+    return fl, float(angle)
+
+
 def ball_after_impact(global_rotations, global_positions, bat_joint: int, hand_joint: int,
                       face_normal_local, hit_frame: int, fps: float, ball_start, hit_point,
                       speed: float = BALL_SPEED, duration: float = 3.0, bat_axis_local=None) -> np.ndarray:

@@ -79,9 +79,8 @@ def aim(rig, shot, desired_hit_point, azimuth_deg: float, settings: AdaptSetting
     def solve(theta: float):
         if theta not in cache:
             a = Adapter(rig, _twisted_shot(shot, joint, theta, weights)).adapt(desired_hit_point, settings)
-            fl = ballistics.flight(a.global_rotations, a.global_positions, rig.bat_joint, rig.bat["face_normal"],
-                                   shot.hit_frame, shot.clip.fps, start, a.desired_hit_point,
-                                   rig.bat.get("axis"), duration=0.0)
+            fl, _ = ballistics.shot_flight(rig, shot, a.global_rotations, a.global_positions, start,
+                                           a.desired_hit_point, duration=0.0)
             cache[theta] = (a, fl.azimuth_deg, fl.contact == "face")
         return cache[theta]
 

@@ -84,13 +84,11 @@ def hit_summary(rig, shot, global_rotations, global_positions, ball_start, hit_p
     """The face and the ball at the hit frame of a (adapted) shot: ``face_angle_deg``
     (vs the source's face), ``face_to_ball`` (cosine), ``contact`` (face|edge|back),
     ``ball_azimuth_deg`` and ``ball_elevation_deg`` of the ball just after the impact."""
-    from engine import ballistics, face  # numba (ballistics' flight kernel): when the command runs
+    from engine import ballistics  # numba (ballistics' flight kernel): when the command runs
 
-    h, bat = shot.hit_frame, rig.bat_joint
-    fl = ballistics.flight(global_rotations, global_positions, bat, rig.bat["face_normal"], h,
-                           shot.clip.fps, ball_start, hit_point, rig.bat.get("axis"), duration=0.0)
-    angle = face.face_angle_deg(np.asarray(global_rotations)[h], shot.fk[0][h], bat, rig.bat["face_normal"])
-    return {"face_angle_deg": round(float(angle), 3), "face_to_ball": round(fl.face_to_ball, 4),
+    fl, angle = ballistics.shot_flight(rig, shot, global_rotations, global_positions, ball_start, hit_point,
+                                       duration=0.0)
+    return {"face_angle_deg": round(angle, 3), "face_to_ball": round(fl.face_to_ball, 4),
             "contact": fl.contact, "ball_azimuth_deg": round(fl.azimuth_deg, 2),
             "ball_elevation_deg": round(fl.elevation_deg, 2)}
 

@@ -13,7 +13,7 @@ from app.viewer import pcpad
 from app.viewer.picking import TARGET_PLANE_Z, clamp_target
 from app.viewer.settings import ViewerSettings
 from app.viewer.state import AppState, Pose
-from engine import ballistics, face
+from engine import ballistics
 from engine.adapt import Adapter
 from engine.choice import BALL_START, choose_shot
 from engine.library import load_library as read_library
@@ -177,17 +177,15 @@ def ball_flight(state: AppState, index: int, adaptation, desired) -> tuple[np.nd
     readouts (what the ball met, the face against the source's, where the ball goes)."""
     shot = state.shots[index]
     rig = state.rig
-    hit = ballistics.flight(adaptation.global_rotations, adaptation.global_positions, rig.bat_joint,
-                            rig.bat["face_normal"], shot.hit_frame, shot.clip.fps, state.ball_start,
-                            desired, bat_axis_local=rig.bat["axis"])
+    hit, face_angle = ballistics.shot_flight(rig, shot, adaptation.global_rotations,
+                                             adaptation.global_positions, state.ball_start, desired)
     polyline = np.asarray(hit.path, float)
     if polyline.ndim != 2 or polyline.shape[-1] != 3 or not np.isfinite(polyline).all():
         raise FloatingPointError("ball flight is not a finite (K,3) polyline")
-    r, h = state.readouts, shot.hit_frame
+    r = state.readouts
     r.contact, r.face_to_ball = hit.contact, float(hit.face_to_ball)
     r.ball_azimuth_deg, r.ball_elevation_deg = hit.azimuth_deg, hit.elevation_deg
-    r.face_angle_deg = float(face.face_angle_deg(adaptation.global_rotations[h], shot.fk[0][h],
-                                                 rig.bat_joint, rig.bat["face_normal"]))
+    r.face_angle_deg = face_angle
     return polyline, FLIGHT_DT
 
 
