@@ -12,8 +12,8 @@ import typer
 
 from app.errors import UserError, cli_errors, number, position, shorten
 from app.errors import falloff as falloff_cm
-from engine import bvh, choice
-from engine.gltf_export import write_gltf
+from engine import choice
+from engine.export import EXTENSIONS, write_take
 from engine.library import find_shot, load_library
 from engine.rig import default_rig
 from engine.skeleton import Clip
@@ -93,7 +93,7 @@ def hit_summary(rig, shot, global_rotations, global_positions, ball_start, hit_p
             "ball_elevation_deg": round(fl.elevation_deg, 2)}
 
 
-OUT_EXTENSIONS = (".bvh", ".csv", ".glb", ".gltf")
+OUT_EXTENSIONS = EXTENSIONS
 
 
 def check_out(out: Path) -> None:
@@ -110,25 +110,8 @@ def check_out(out: Path) -> None:
 
 
 def _write(out: Path, rig, shot, a) -> None:
-    suffix = out.suffix.lower()
     clip = Clip(a.root_positions, a.local_rotations, shot.clip.fps)
-    if suffix == ".bvh":
-        bvh.write(out, shot.skeleton, clip)
-        return
-    if suffix in (".glb", ".gltf"):
-        write_gltf(out, shot.skeleton, clip, name=f"{shot.name}_adapted")
-        return
-    from engine.ccd import limit_euler  # numba (0.25 s): when the command runs
-    e = limit_euler(a.local_rotations, rig.limits)
-    names = shot.skeleton.names
-    head = ["frame", "blend", "root_x", "root_y", "root_z"] + [
-        f"{n}_{ax}" for n in names for ax in ("z", "y", "x")]
-    rows = [",".join(head)]
-    for f in range(len(a.blend)):
-        vals = [str(f), f"{a.blend[f]:.6f}"] + [f"{v:.6f}" for v in a.root_positions[f]] + [
-            f"{v:.6f}" for v in e[f].reshape(-1)]
-        rows.append(",".join(vals))
-    bvh.atomic_write_text(out, "\n".join(rows) + "\n")
+    write_take(out, shot.skeleton, clip, name=f"{shot.name}_adapted", limits=rig.limits, blend=a.blend)
 
 
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
