@@ -13,11 +13,12 @@ import math
 import os
 import re
 from itertools import islice
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from . import atomic, quat
+from . import atomic, euler as euler_angles, quat
 from .skeleton import Clip, Skeleton
 
 MAX_FILE_BYTES = 512 * 1024 * 1024   # refused before reading
@@ -354,6 +355,20 @@ def parse(text: str, path: str | None = None) -> tuple[Skeleton, Clip]:
     return _build(h.names, h.parents, h.offsets, h.channels, h.end_sites, data, dt)
 
 
+@dataclass
+class FileClip(Clip):
+    """A clip as read from a BVH file, with the file's own Euler numbers
+    ``file_euler (F, J, 3)`` degrees (each joint's channel order; zeros for a joint
+    without rotation channels): the writer keeps them wherever the rotation is
+    unchanged, so a file read and written back has the same numbers."""
+    file_euler: np.ndarray | None = None
+
+    def copy(self) -> "FileClip":
+        base = super().copy()
+        return FileClip(base.root_positions, base.local_rotations, base.fps, base.local_positions,
+                        None if self.file_euler is None else self.file_euler.copy())
+
+
 def _build(names, parents, offsets, channels, end_sites, data, dt):
     J = len(names)
     F = data.shape[0]
@@ -383,8 +398,8 @@ def _build(names, parents, offsets, channels, end_sites, data, dt):
         sel = [j for j in range(J) if orders[j] == order]
         rotations[:, sel] = quat.from_euler(euler[:, sel], order)
     skel = Skeleton(names, np.array(parents), offsets, orders, has_pos, end_sites)
-    clip = Clip(local_positions[:, 0].copy(), rotations, 1.0 / dt,
-                local_positions if animated_positions else None)
+    clip = FileClip(local_positions[:, 0].copy(), rotations, 1.0 / dt,
+                    local_positions if animated_positions else None, euler)
     return skel, clip
 
 
@@ -431,8 +446,29 @@ def _fmt(v: float) -> str:
     return "0" if s in ("-0", "") else s
 
 
-def format_bvh(skeleton: Skeleton, clip: Clip, euler: np.ndarray | None = None) -> str:
-    """BVH text for a skeleton and clip (rotation channels in each joint's order)."""
+def file_euler(skeleton: Skeleton, clip: Clip, limits: np.ndarray | None = None,
+               reference: np.ndarray | None = None) -> np.ndarray:
+    """The Euler numbers ``(F, J, 3)`` degrees a BVH (or CSV) of ``clip`` holds, in
+    each joint's channel order: continuous over frames (:mod:`engine.euler`), from
+    the branch inside ``limits (J, 3, 2)`` (same order) at frame 0, and equal to
+    ``reference (F, J, 3)`` -- by default the numbers of the file ``clip`` was read
+    from -- wherever the rotation is the same."""
+    F, J = clip.num_frames, skeleton.num_joints
+    if reference is None:
+        reference = getattr(clip, "file_euler", None)
+    if reference is not None and np.shape(reference) != (F, J, 3):
+        reference = None     # another skeleton or clip length: nothing to keep
+    return euler_angles.continuous(clip.local_rotations, skeleton.channel_orders, limits, reference)
+
+
+def format_bvh(skeleton: Skeleton, clip: Clip, euler: np.ndarray | None = None, *,
+               limits: np.ndarray | None = None, reference: np.ndarray | None = None) -> str:
+    """BVH text for a skeleton and clip (rotation channels in each joint's order).
+
+    ``euler (F, J, 3)`` degrees are written as given; by default they are
+    :func:`file_euler` (continuous, ``limits`` and ``reference`` as there)."""
+    if euler is None:
+        euler = file_euler(skeleton, clip, limits, reference)
     J = skeleton.num_joints
     out = ["HIERARCHY"]
     children = {j: skeleton.children(j) for j in range(J)}
@@ -473,16 +509,17 @@ def format_bvh(skeleton: Skeleton, clip: Clip, euler: np.ndarray | None = None) 
         order = skeleton.channel_orders[j]
         if not order:
             continue
-        e = quat.to_euler(clip.local_rotations[:, j], order) if euler is None else euler[:, j]
-        cols.append(e)
+        cols.append(euler[:, j])
     data = np.concatenate(cols, axis=1) if cols else np.zeros((F, 0))
     out += [" ".join(_fmt(v) for v in row) for row in data]
     return "\n".join(out) + "\n"
 
 
-def write(path: str | os.PathLike, skeleton: Skeleton, clip: Clip) -> None:
-    """Write atomically: a temporary file in the same folder, then a rename."""
-    text = format_bvh(skeleton, clip)
+def write(path: str | os.PathLike, skeleton: Skeleton, clip: Clip, *, limits: np.ndarray | None = None,
+          reference: np.ndarray | None = None) -> None:
+    """Write atomically: a temporary file in the same folder, then a rename.
+    Euler angles as :func:`file_euler` (``limits``, ``reference`` as there)."""
+    text = format_bvh(skeleton, clip, limits=limits, reference=reference)
     atomic_write_text(path, text)
 
 

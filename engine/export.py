@@ -14,30 +14,32 @@ EXTENSIONS = (".bvh", ".csv", ".glb", ".gltf")
 
 
 def write_take(out: str | Path, skeleton: Skeleton, clip: Clip, *, name: str, limits: np.ndarray | None = None,
-               blend: np.ndarray | None = None) -> None:
+               blend: np.ndarray | None = None, reference: np.ndarray | None = None) -> None:
     """Write ``clip`` on ``skeleton`` to ``out`` (format by extension).
 
-    ``name`` names the animation (glTF); ``limits`` (J, 3, 2) degrees pick the
-    Euler branch of the CSV; ``blend`` (F,) is the importance blend written as
-    the CSV's second column."""
+    ``name`` names the animation (glTF); BVH and CSV Euler angles are continuous
+    over frames (:func:`engine.bvh.file_euler`), from the branch inside ``limits``
+    (J, 3, 2) degrees (each joint's channel order) at frame 0, keeping
+    ``reference`` (F, J, 3) -- the source file's numbers -- where the rotation is
+    unchanged; ``blend`` (F,) is the importance blend written as the CSV's second
+    column."""
     suffix = Path(out).suffix.lower()
     if suffix == ".bvh":
-        bvh.write(out, skeleton, clip)
+        bvh.write(out, skeleton, clip, limits=limits, reference=reference)
     elif suffix in (".glb", ".gltf"):
         from .gltf_export import write_gltf  # pygltflib: only when a glTF is written
         write_gltf(out, skeleton, clip, name=name)
     elif suffix == ".csv":
-        write_csv(out, skeleton, clip, limits, blend)
+        write_csv(out, skeleton, clip, limits, blend, reference)
     else:
         raise ValueError(f"unknown extension {suffix or '(none)'!r} (use {', '.join(EXTENSIONS)})")
 
 
-def write_csv(out, skeleton: Skeleton, clip: Clip, limits: np.ndarray | None, blend: np.ndarray | None) -> None:
+def write_csv(out, skeleton: Skeleton, clip: Clip, limits: np.ndarray | None, blend: np.ndarray | None,
+              reference: np.ndarray | None = None) -> None:
     """One row a frame: frame, blend, root position, then Euler z, y, x per joint."""
-    from .ccd import limit_euler  # numba (0.25 s): only when a CSV is written
-    F, J = clip.num_frames, skeleton.num_joints
-    lim = limits if limits is not None else np.tile([-180.0, 180.0], (J, 3, 1))
-    e = limit_euler(clip.local_rotations, lim)
+    F = clip.num_frames
+    e = bvh.file_euler(skeleton, clip, limits, reference)
     blend = np.zeros(F) if blend is None else blend
     head = ["frame", "blend", "root_x", "root_y", "root_z"] + [
         f"{n}_{ax}" for n in skeleton.names for ax in ("z", "y", "x")]
