@@ -23,6 +23,7 @@ class Shot:
     skeleton: Skeleton
     clip: Clip
     bat_joint: int
+    capture: object = None      # the engine.capture.Capture a user's shot came from (to write it back)
 
     @cached_property
     def fk(self) -> tuple[np.ndarray, np.ndarray]:
@@ -141,6 +142,7 @@ class ManifestEntry:
     hit_frame: int
     description: str
     path: Path
+    profile: str | None = None       # a rig profile (engine.profiles) for a capture on its own skeleton
 
 
 def _check_text(manifest: Path, i: int, e: dict, key: str, limit: int) -> str:
@@ -164,6 +166,7 @@ def _check_entry(manifest: Path, i: int, e) -> ManifestEntry:
     name = _check_text(manifest, i, e, "name", MAX_NAME)
     file = _check_text(manifest, i, e, "file", MAX_FILE_NAME)
     description = _check_text(manifest, i, e, "description", MAX_DESCRIPTION) if "description" in e else ""
+    profile = _check_text(manifest, i, e, "profile", MAX_NAME) if "profile" in e else None
     hit = e["hit_frame"]
     if type(hit) is not int or hit < 0:
         raise LibraryError(manifest, f"'hit_frame' must be a frame number (an integer >= 0), found "
@@ -172,7 +175,7 @@ def _check_entry(manifest: Path, i: int, e) -> ManifestEntry:
     if not path.is_file():
         raise LibraryError(manifest, f"file {bvh.quoted(file)} not found (expected a BVH file, "
                            "relative to the manifest's folder)", i)
-    return ManifestEntry(name, file, hit, description, path)
+    return ManifestEntry(name, file, hit, description, path, profile)
 
 
 def read_manifest(manifest: Path) -> list[ManifestEntry]:

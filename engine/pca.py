@@ -20,7 +20,7 @@ from . import quat
 
 # A parameter whose SD is below this is treated as constant (D = 1), so it
 # standardises to exactly 0 instead of to noise / 0.
-CONSTANT_SD = 1e-9
+CONSTANT_SD = 1e-4   # a quaternion component varying by less (~0.01 deg) is constant: capture noise, not motion
 
 
 @dataclass

@@ -14,15 +14,16 @@ from app.errors import UserError, cli_errors, number, position, shorten
 from app.errors import falloff as falloff_cm
 from engine import choice
 from engine.export import EXTENSIONS, write_take
-from engine.library import find_shot, load_library
-from engine.rig import default_rig
+from engine.library import find_shot
+from engine.userlib import load_shots
 from engine.skeleton import Clip
 
 WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 
 
 def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
-              twist="follow", direction=None, out: Optional[Path] = None) -> dict:
+              twist="follow", direction=None, out: Optional[Path] = None, bvh=None, profile="auto",
+              hit_frame="auto", handed=None, scale=None, offset=None, library=None) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
     from engine.adapt import Adapter, AdaptSettings, check_settings  # numba (0.25 s): when the command runs
 
@@ -30,8 +31,13 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         check_out(out)
     settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver, twist=twist)
     check_settings(settings)
-    rig = default_rig()
-    shots = load_library(rig=rig)
+    if bvh is not None:
+        if target is not None or shot_name is not None or library is not None:
+            raise UserError("--bvh adapts one capture: give --offset or --hit, not --target, --shot or --library")
+        return run_capture(Path(bvh), settings, profile, hit_frame, handed, scale, offset, hit, out)
+    if offset is not None:
+        raise UserError("--offset goes with --bvh FILE (with --shot, give --hit X Y Z)")
+    rig, shots = load_shots(library)
     if target is not None:
         if shot_name is not None or hit is not None:
             raise UserError("give either --target, or --shot with --hit, not both")
@@ -53,7 +59,9 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         aimed = aim(rig, shot, desired, direction, settings)
         a = aimed.adaptation
     solve_ms = (time.perf_counter() - t0) * 1e3
-    if out is not None:
+    if out is not None and shot.capture is not None:
+        shot.capture.write(out, a.local_rotations, a.root_positions, a.blend, f"{shot.name}_adapted")
+    elif out is not None:
         _write(out, rig, shot, a)
     r = lambda v: [round(float(x), 4) for x in v]  # noqa: E731
     return {
@@ -70,13 +78,51 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         "max_grip_error_cm": round(float(a.grip_error_cm.max()), 4),
         "max_grip_error_deg": round(float(a.grip_error_deg.max()), 4),
         "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
-        **hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START, a.desired_hit_point),
+        **({} if "face_normal" not in rig.bat else
+           hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START, a.desired_hit_point)),
         **({} if aimed is None else {
             "direction_requested_deg": round(aimed.requested_deg, 2), "direction_reached": aimed.reached,
             "direction_range_deg": [round(v, 1) for v in aimed.range_deg],
             "forearm_twist_deg": round(aimed.twist_deg, 2)}),
         "solve_ms": round(solve_ms, 3),
         "out": None if out is None else str(out),
+    }
+
+
+def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset, hit, out) -> dict:
+    """``adapt --bvh``: a capture on its own skeleton, moved by ``offset`` (or to ``hit``) at its
+    hit frame, written back on its own skeleton and units."""
+    from engine.adapt import Adapter
+    from engine.capture import load_capture
+
+    if (offset is None) == (hit is None):
+        raise UserError("--bvh needs --offset DX DY DZ or --hit X Y Z (cm), one of them")
+    cap = load_capture(path, profile, hit_frame, handed, scale)
+    source = cap.shot.hit_point
+    desired = source + np.asarray(offset, float) if offset is not None else np.asarray(hit, float)
+    adapter = Adapter(cap.rig, cap.shot)
+    t0 = time.perf_counter()
+    a = adapter.adapt(desired, settings)
+    solve_ms = (time.perf_counter() - t0) * 1e3
+    if out is not None:
+        cap.write(out, a.local_rotations, a.root_positions, a.blend)
+    r = lambda v: [round(float(x), 4) for x in v]  # noqa: E731
+    rig = cap.rig
+    return {
+        "bvh": str(path), "profile": cap.profile.name, "handedness": cap.profile.handedness,
+        "scale": cap.scale, "units": "cm", "frames": cap.shot.num_frames, "fps": round(cap.shot.clip.fps, 4),
+        "hit_frame": cap.hit.frame, "hit_frame_method": cap.hit.method,
+        "effector": rig.skeleton.names[rig.bat_joint] if not cap.appended else
+        f"{cap.profile.implement.get('hit_point', 'hands_midpoint')} of "
+        f"{rig.skeleton.names[cap.lead_hand]} and {rig.skeleton.names[cap.trail_hand]}",
+        "lead_hand": rig.skeleton.names[cap.lead_hand],
+        "source_hit_point": r(source), "desired_hit_point": r(a.desired_hit_point),
+        "offset": r(a.desired_hit_point - source),
+        "bat_error_cm": round(a.bat_error_cm, 6),
+        "max_grip_error_cm": round(float(a.grip_error_cm.max()), 4),
+        "max_grip_error_deg": round(float(a.grip_error_deg.max()), 4),
+        "falloff": settings.falloff, "wrist_dof": settings.wrist_dof, "solver": settings.solver,
+        "solve_ms": round(solve_ms, 3), "out": None if out is None else str(out),
     }
 
 
@@ -115,7 +161,9 @@ def _write(out: Path, rig, shot, a) -> None:
 
 
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
-          "--solver": 1, "--twist": 1, "--direction": 1, "--out": 1}
+          "--solver": 1, "--twist": 1, "--direction": 1, "--out": 1, "--bvh": 1, "--profile": 1,
+          "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1}
+MAX_SCALE = 1e4        # cm per file unit: beyond a kilometre a unit is a mistake
 
 
 def parse_args(args: list[str]) -> dict:
@@ -136,6 +184,7 @@ def parse_args(args: list[str]) -> dict:
 
     out = {"target": None, "shot_name": None, "hit": None, "falloff": 90.0, "wrist_dof": 0,
            "solver": "ccd", "twist": "follow", "direction": None, "out": None}
+    out.update(capture_args(got))
     if "--target" in got:
         out["target"] = position("--target", got["--target"])
     if "--hit" in got:
@@ -157,6 +206,26 @@ def parse_args(args: list[str]) -> dict:
         out["direction"] = number("--direction", got["--direction"][0], -180.0, 180.0)
     if "--out" in got:
         out["out"] = Path(got["--out"][0])
+    return out
+
+
+def capture_args(got: dict) -> dict:
+    """The options of ``adapt --bvh`` (a capture on its own skeleton) and ``--library``."""
+    out = {}
+    for flag, key in (("--bvh", "bvh"), ("--profile", "profile"), ("--library", "library")):
+        if flag in got:
+            out[key] = got[flag][0]
+    if "--hit-frame" in got:
+        v = got["--hit-frame"][0]
+        out["hit_frame"] = v if v == "auto" else number("--hit-frame", v, 0, None, integer=True)
+    if "--handed" in got:
+        out["handed"] = got["--handed"][0]
+        if out["handed"] not in ("right", "left"):
+            raise UserError(f"--handed must be right or left, got {shorten(out['handed'])!r}")
+    if "--scale" in got:
+        out["scale"] = number("--scale", got["--scale"][0], 1.0 / MAX_SCALE, MAX_SCALE)
+    if "--offset" in got:
+        out["offset"] = position("--offset", got["--offset"])
     return out
 
 

@@ -13,8 +13,8 @@ from app.cli.render import check_png_out, save_png_atomic
 from app.errors import MAX_POSITION_CM, UserError, cli_errors, numbers, shorten
 from app.errors import falloff as falloff_cm
 from engine import choice, quat
-from engine.library import find_shot, load_library
-from engine.rig import default_rig
+from engine.library import find_shot
+from engine.userlib import load_shots
 from engine.skeleton import Clip, bind_positions, clip_fk, skinning_matrices
 
 DISSERTATION = {"dof0": 0.307, "dof2": 0.398, "source": "Table 2.1"}
@@ -37,7 +37,7 @@ def register(cli: typer.Typer) -> None:
         part: str = typer.Option("upper", "--part", help="--components-strip: upper (as in Figure 3.2) or body."),
         directions: bool = typer.Option(False, "--directions", help="Face angle and ball direction over a grid of hit-point offsets, wrist 0 vs 2 DOF (Fig. 2.6); --json for JSON."),
         multi: bool = typer.Option(False, "--multi", help="The 'batting space' of all shots together (4.2): variance of 2 and 3 PCs."),
-        library: Path = typer.Option(None, "--library", help="Shot manifest (default: the bundled library)."),
+        library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
     ):
         """PCA of each shot: explained variance per component and cumulative (first 5 PCs).
 
@@ -55,8 +55,7 @@ def register(cli: typer.Typer) -> None:
             offsets_cm = _parse_offsets(offsets) if style else None
             falloff = falloff_cm("--falloff", falloff)
             check_settings(AdaptSettings(falloff=falloff, solver=solver))
-        rig = default_rig()
-        shots = load_library(library, rig)
+        rig, shots = load_shots(library)
         if not shots:
             raise UserError("the shot library is empty")
         if shot:

@@ -19,8 +19,8 @@ from app.errors import UserError, cli_errors, number, position
 from app.errors import falloff as falloff_cm
 from engine import quat
 from engine.atomic import atomic_output
-from engine.library import find_shot, load_library
-from engine.rig import default_rig
+from engine.library import find_shot
+from engine.userlib import load_shots
 from engine.skeleton import bind_positions, skinning_matrices
 
 MAX_STRIP_FRAMES = 64
@@ -183,6 +183,8 @@ def register(cli: typer.Typer) -> None:
                                                                  show_default=False),
         falloff: float = typer.Option(90.0, "--falloff", help="IK falloff in cm (with --hit)."),
         wrist_dof: int = typer.Option(0, "--wrist-dof", help="Left wrist DOF, 0 or 2 (with --hit)."),
+        library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, "
+                                     "or the manifest (default: the bundled library)."),
     ):
         """Contact sheet of a shot: skinned mesh (top) and source skeleton (bottom), frames side by side."""
 
@@ -196,8 +198,8 @@ def register(cli: typer.Typer) -> None:
         hit = None if hit is None else position("--hit", hit)
         settings = dict(falloff=falloff_cm("--falloff", falloff),
                         wrist_dof=number("--wrist-dof", wrist_dof, choices=WRIST_DOFS))
-        rig = default_rig()
-        s = find_shot(load_library(rig=rig), shot)
+        rig, shots = load_shots(library)
+        s = find_shot(shots, shot)
         adapted = None
         if hit is not None:
             from engine.adapt import Adapter, AdaptSettings  # numba (0.25 s): when the command runs

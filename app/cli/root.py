@@ -8,13 +8,13 @@ import sys
 import typer
 
 from app.cli import adapt as cmd_adapt, analyse as cmd_analyse, bench as cmd_bench, render as cmd_render
-from app.cli import shots as cmd_shots, synth as cmd_synth, view as cmd_view
+from app.cli import shots as cmd_shots, synth as cmd_synth, view as cmd_view, library as cmd_library
 from app.errors import one_line
 
 cli = typer.Typer(add_completion=False, no_args_is_help=False,
                   help="Hitpoint: adapt motion-captured cricket shots to any hit point.")
 
-for _module in (cmd_view, cmd_shots, cmd_render, cmd_adapt, cmd_bench, cmd_analyse, cmd_synth):
+for _module in (cmd_view, cmd_shots, cmd_render, cmd_adapt, cmd_bench, cmd_analyse, cmd_synth, cmd_library):
     _module.register(cli)
 NO_ENGINE_COMMANDS = ("shots",)     # commands that run no compiled engine code
 

@@ -1,20 +1,23 @@
-"""``hitpoint shots``: list the bundled library."""
+"""``hitpoint shots``: list the bundled library or a user's."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import typer
 
 from app.errors import cli_errors
-from engine.library import load_library
+from engine.userlib import load_shots
 
 
 def register(cli: typer.Typer) -> None:
     @cli.command("shots")
     @cli_errors
-    def shots(as_json: bool = typer.Option(False, "--json", help="Print a JSON list of objects.")):
+    def shots(as_json: bool = typer.Option(False, "--json", help="Print a JSON list of objects."),
+              library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, "
+                                           "or the manifest (default: the bundled library).")):
         """List the shot library: name, file, frames, hit frame, FK hit point (cm)."""
-        lib = load_library()
+        _, lib = load_shots(library)
         rows = [{"name": s.name, "file": s.file, "frames": s.num_frames, "hit_frame": s.hit_frame,
                  "hit_point": [round(float(v), 3) for v in s.hit_point]} for s in lib]
         if as_json:

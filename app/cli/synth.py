@@ -9,8 +9,8 @@ import typer
 
 from app.errors import MAX_FPS, MIN_FPS, UserError, cli_errors, number
 from app.jsonfile import read_json
-from engine.library import find_shot, load_library
-from engine.rig import default_rig
+from engine.library import find_shot
+from engine.userlib import load_shots
 
 MAX_PATH_FILE_BYTES = 16_000_000   # a path of MAX_PATH_POINTS timed points is ~5 MB of JSON
 
@@ -27,7 +27,7 @@ def register(cli: typer.Typer) -> None:
         fix_hand: bool = typer.Option(True, "--fix-hand/--no-fix-hand", help="Re-attach the right hand to the bat."),
         plant_feet: bool = typer.Option(True, "--plant-feet/--no-plant-feet", help="Keep the source's planted feet planted."),
         fps: float = typer.Option(None, "--fps", help="Frame rate when the path has timestamps (default: the shot's)."),
-        library: Path = typer.Option(None, "--library", help="Shot manifest (default: the bundled library)."),
+        library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
     ):
         """Synthesise an animation from a path through the shot's first two PCs.
 
@@ -55,8 +55,8 @@ def register(cli: typer.Typer) -> None:
         if fps is not None:
             fps = number("--fps", fps, MIN_FPS, MAX_FPS)
 
-        rig = default_rig()
-        src = find_shot(load_library(library, rig), shot)
+        rig, shots = load_shots(library)
+        src = find_shot(shots, shot)
         space = pcam.fit_clip(rig, src.clip, "body")
         sections = synth.shot_sections(src.fk[1][:, rig.bat_joint], src.hit_frame)
         rate = fps or spec.fps or float(src.clip.fps)
@@ -76,5 +76,8 @@ def register(cli: typer.Typer) -> None:
             anim = res.clip
             summary["cleanup"] = {k: round(v, 3) if isinstance(v, float) else v for k, v in res.summary().items()}
         synth.check_finite_clip(anim)       # ValueError: one line from cli_errors, nothing written
-        bvh.write(out, src.skeleton, anim)
+        if src.capture is not None:     # a user's shot: back on its own skeleton and units
+            src.capture.write(out, anim.local_rotations, anim.root_positions, name=f"{src.name}_synth")
+        else:
+            bvh.write(out, src.skeleton, anim)
         print(json.dumps(summary, indent=1))

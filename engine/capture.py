@@ -1,0 +1,240 @@
+"""A real capture on its own skeleton, made ready for the engine and written back.
+
+``load_capture`` reads a BVH, places its joints by a rig profile
+(:mod:`engine.profiles`), scales it to centimetres and builds a :class:`Rig`
+for it: DOFs and anatomical limits per role (taken from the bundled rig's
+joint of the same role, so every limit is written once, in ``assets/rig.json``),
+the lead-arm chain from the first spine joint to the lead hand with the
+implement's hit point as its effector (a fixed joint appended under the lead
+hand, placed at the hit frame), and the trail arm kept on the grip. The
+result goes back with :meth:`Capture.to_file`: the input's hierarchy, joint
+order, channels and units, the appended joint dropped.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from . import bvh, quat
+from .hitframe import HitFrame, find_hit_frame, motion_start
+from .library import Shot
+from .profiles import Profile, ProfileError, detect, load_profile, resolve
+from .rig import Chain, Rig, default_rig
+from .skeleton import Clip, Skeleton, clip_fk
+
+IMPLEMENT_JOINT = "HitpointImplement"   # appended under the lead hand; never written out
+KNOWN_UNITS_CM = (0.1, 1.0, 2.54, 5.6444, 100.0)   # mm, cm, inch, CMU's unit, m
+STANDING_HEIGHT_CM = 170.0             # a typical adult, to guess a file's unit
+BALL_DIAMETER_CM = 7.2
+
+
+@dataclass
+class Capture:
+    path: Path
+    profile: Profile
+    roles: dict
+    scale: float                 # cm per file unit
+    file_skeleton: Skeleton      # as read (file units)
+    file_clip: Clip
+    rig: Rig                     # in cm, with the implement joint when appended
+    shot: Shot
+    hit: HitFrame
+    appended: bool               # an implement joint was appended (dropped on writing)
+
+    @property
+    def lead_hand(self) -> int:
+        return self.roles[f"{self.profile.lead}_hand"]
+
+    @property
+    def trail_hand(self) -> int:
+        return self.roles[f"{self.profile.trail}_hand"]
+
+    def write(self, out: str | Path, local_rotations: np.ndarray, root_positions: np.ndarray,
+              blend: np.ndarray | None = None, name: str | None = None) -> None:
+        """Write an engine result on the file's own skeleton (format by extension)."""
+        from .export import write_take
+        skel, clip = self.to_file(local_rotations, root_positions)
+        name = name or f"{self.shot.name}_adapted"
+        if Path(out).suffix.lower() in (".glb", ".gltf"):
+            from .gltf_export import write_gltf   # no batsman mesh on a foreign skeleton
+            write_gltf(out, skel, clip, with_mesh=False, name=name)
+        else:
+            write_take(out, skel, clip, name=name, limits=self.rig.limits[:skel.num_joints], blend=blend)
+
+    def to_file(self, local_rotations: np.ndarray, root_positions: np.ndarray) -> tuple[Skeleton, Clip]:
+        """An engine result (cm, rig joints) as a take on the file's own skeleton and units."""
+        J = self.file_skeleton.num_joints
+        clip = Clip(root_positions / self.scale, np.ascontiguousarray(local_rotations[:, :J]), self.file_clip.fps,
+                    None if self.file_clip.local_positions is None else self.file_clip.local_positions.copy())
+        if clip.local_positions is not None:
+            clip.local_positions[:, 0] = clip.root_positions
+        return self.file_skeleton, clip
+
+
+def guess_scale(skeleton: Skeleton, roles: dict) -> float:
+    """cm per unit, the known unit nearest (in ratio) to a 170 cm rest height."""
+    from .skeleton import bind_positions
+    p = bind_positions(skeleton)
+    top = roles.get("head", roles["spine"][-1])
+    feet = [roles[k] for k in ("left_foot", "right_foot") if k in roles] or [0]
+    height = float(p[top, 1] - min(p[f, 1] for f in feet))
+    if not height > 0:
+        raise ProfileError("cannot guess the file's units (the head is not above the feet); give --scale")
+    ratios = [abs(np.log(u * height / STANDING_HEIGHT_CM)) for u in KNOWN_UNITS_CM]
+    return KNOWN_UNITS_CM[int(np.argmin(ratios))]
+
+
+def scaled(skeleton: Skeleton, clip: Clip, scale: float) -> tuple[Skeleton, Clip]:
+    """Skeleton and clip with every length multiplied by ``scale`` (file units -> cm)."""
+    sk = Skeleton(list(skeleton.names), skeleton.parents.copy(), skeleton.offsets * scale,
+                  list(skeleton.channel_orders), list(skeleton.position_channels),
+                  {j: o * scale for j, o in skeleton.end_sites.items()})
+    cl = Clip(clip.root_positions * scale, clip.local_rotations.copy(), clip.fps,
+              None if clip.local_positions is None else clip.local_positions * scale)
+    return sk, cl
+
+
+@lru_cache(maxsize=1)
+def _template() -> tuple[Rig, dict]:
+    """The bundled rig and its roles: where every role's DOFs and limits are written."""
+    rig = default_rig()
+    return rig, resolve(load_profile("hitpoint"), rig.skeleton)
+
+
+def _template_joint(role: str, k: int, n: int, troles: dict) -> int:
+    """The bundled rig's joint for ``role`` (the k-th of n for the spine and neck)."""
+    t = troles[role]
+    if isinstance(t, list):
+        return t[min(len(t) - 1, (k * len(t)) // max(n, 1))]
+    return t
+
+
+def role_limits(roles: dict, num_joints: int) -> tuple[np.ndarray, np.ndarray]:
+    """DOF mask (J, 3) and limits (J, 3, 2) degrees per joint from its role.
+
+    Where a skeleton has no roll joints, the bundled rig's roll (twist) DOF and
+    range move onto the arm or forearm above it."""
+    trig, troles = _template()
+    dof, limits = np.zeros((num_joints, 3), bool), np.zeros((num_joints, 3, 2))
+    for role, j in roles.items():
+        if role not in troles or role == "hips":   # the root is never solved
+            continue
+        joints = j if isinstance(j, list) else [j]
+        for k, jj in enumerate(joints):
+            t = _template_joint(role, k, len(joints), troles)
+            dof[jj], limits[jj] = trig.dof[t], trig.limits[t]
+    for side in ("left", "right"):
+        for roll, host in (("arm_roll", "arm"), ("forearm_roll", "forearm")):
+            if f"{side}_{roll}" in roles or f"{side}_{host}" not in roles:
+                continue
+            h, t = roles[f"{side}_{host}"], troles[f"{side}_{roll}"]
+            dof[h, 2] = True
+            limits[h, 2] = np.clip(limits[h, 2] + trig.limits[t, 2], -180.0, 180.0)
+    return dof, limits
+
+
+def implement_points(profile: Profile, roles: dict, global_positions: np.ndarray) -> np.ndarray:
+    """The implement's hit point per frame ``(F, 3)`` cm, from the hands."""
+    lead = global_positions[:, roles[f"{profile.lead}_hand"]]
+    trail = global_positions[:, roles[f"{profile.trail}_hand"]]
+    imp = profile.implement
+    if imp.get("hit_point", "hands_midpoint") == "hands_midpoint":
+        return 0.5 * (lead + trail)
+    axis = trail - lead
+    axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-9)
+    return lead + float(imp["length_cm"]) * axis
+
+
+def _with_implement(skel: Skeleton, hand: int, offset: np.ndarray) -> Skeleton:
+    return Skeleton(skel.names + [IMPLEMENT_JOINT], np.append(skel.parents, hand),
+                    np.vstack([skel.offsets, offset]), skel.channel_orders + [""],
+                    skel.position_channels + [False], dict(skel.end_sites))
+
+
+def build_rig(profile: Profile, roles: dict, skel: Skeleton, effector: int) -> Rig:
+    """A Rig for a (cm) skeleton whose lead-arm effector is joint ``effector``."""
+    J = skel.num_joints
+    dof, limits = role_limits(roles, J)
+    lead, trail = profile.lead, profile.trail
+    trail_top = roles.get(f"{trail}_clavicle", roles[f"{trail}_arm"])
+    chains = {"left_arm": Chain(skel.chain(skel.names[roles["spine"][0]], skel.names[roles[f"{lead}_hand"]]), effector),
+              "right_arm": Chain(skel.chain(skel.names[trail_top], skel.names[roles[f"{trail}_hand"]]),
+                                 roles[f"{trail}_hand"])}
+    feet = {}
+    for side in ("left", "right"):
+        if all(f"{side}_{r}" in roles for r in ("upleg", "foot")):
+            chains[f"{side}_leg"] = Chain(skel.chain(skel.names[roles[f"{side}_upleg"]],
+                                                     skel.names[roles[f"{side}_foot"]]), roles[f"{side}_foot"])
+            feet[side] = [roles[f"{side}_foot"]] + ([roles[f"{side}_toe"]] if f"{side}_toe" in roles else [])
+    trig, _ = _template()
+    bat = dict(trig.bat) if profile.implement.get("joint") else {"kind": profile.implement.get("kind", "bat")}
+    animated = J
+    while animated > 0 and not skel.channel_orders[animated - 1]:   # PCA: the animated joints come first
+        animated -= 1
+    return Rig(skel, dof, limits, chains, bat, BALL_DIAMETER_CM / 2, roles[f"{lead}_hand"], 0, feet, animated)
+
+
+def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: int | str = "auto",
+                 handedness: str | None = None, scale: float | None = None) -> Capture:
+    """Read a BVH capture and make it ready for the engine (see the module's doc).
+
+    ``profile``: a bundled name, a JSON path, a Profile or "auto"; ``hit_frame``:
+    a frame number or "auto"; ``handedness`` overrides the profile's ("left":
+    the right hand leads); ``scale`` overrides its units (cm per file unit).
+    Raises ProfileError / BvhError / ValueError with one-line messages."""
+    path = Path(path)
+    file_skel, file_clip = bvh.read(path)
+    if profile == "auto":
+        prof, roles = detect(file_skel)
+    else:
+        prof = profile if isinstance(profile, Profile) else load_profile(profile)
+        roles = resolve(prof, file_skel)
+    if handedness is not None:
+        if handedness not in ("right", "left"):
+            raise ProfileError(f"handedness must be right or left, got {handedness!r}")
+        prof = Profile(**{**prof.__dict__, "handedness": handedness})
+    cm = float(scale) if scale is not None else (
+        guess_scale(file_skel, roles) if prof.scale_cm == "auto" else float(prof.scale_cm))
+    skel, clip = scaled(file_skel, file_clip, cm)
+    grot, gpos = clip_fk(skel, clip)
+    hit = _hit_frame(prof, roles, clip, gpos, hit_frame)
+    skel, effector, appended = _implement(prof, roles, skel, grot[hit.frame], gpos[hit.frame])
+    if appended:
+        clip.local_rotations = np.concatenate(
+            [clip.local_rotations, quat.identity((clip.num_frames, 1))], axis=1)
+        if clip.local_positions is not None:
+            clip.local_positions = np.concatenate(
+                [clip.local_positions, np.broadcast_to(skel.offsets[-1], (clip.num_frames, 1, 3))], axis=1)
+    rig = build_rig(prof, roles, skel, effector)
+    shot = Shot(path.stem, path.name, hit.frame, f"{prof.name} capture", skel, clip, effector)
+    cap = Capture(path, prof, roles, cm, file_skel, file_clip, rig, shot, hit, appended)
+    shot.capture = cap
+    return cap
+
+
+def _hit_frame(prof: Profile, roles: dict, clip: Clip, gpos: np.ndarray, hit_frame) -> HitFrame:
+    F = clip.num_frames
+    if hit_frame == "auto":
+        return find_hit_frame(implement_points(prof, roles, gpos), clip.fps, motion_start(clip.local_rotations))
+    h = int(hit_frame)
+    if not 0 <= h < F:
+        raise ValueError(f"hit frame {h} outside the capture's frames 0..{F - 1}")
+    return HitFrame(h, "given", h, float("nan"), 0)
+
+
+def _implement(prof: Profile, roles: dict, skel: Skeleton, grot_hit: np.ndarray, gpos_hit: np.ndarray):
+    """(skeleton, effector joint, appended): the profile's implement joint, or one
+    appended under the lead hand at the hit point of the hit frame."""
+    name = prof.implement.get("joint")
+    if name:
+        if name not in skel.names:
+            raise ProfileError(f"profile {prof.name!r} names an implement joint the file lacks: {name}")
+        return skel, skel.index(name), False
+    hand = roles[f"{prof.lead}_hand"]
+    point = implement_points(prof, roles, gpos_hit[None])[0]
+    offset = quat.rotate(quat.conjugate(grot_hit[hand]), point - gpos_hit[hand])
+    skel = _with_implement(skel, hand, offset)
+    return skel, skel.num_joints - 1, True
