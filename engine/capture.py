@@ -62,7 +62,8 @@ class Capture:
             from .gltf_export import write_gltf   # no batsman mesh on a foreign skeleton
             write_gltf(out, skel, clip, with_mesh=False, name=name)
         else:
-            write_take(out, skel, clip, name=name, limits=self.rig.limits[:skel.num_joints], blend=blend)
+            # the file's own numbers wherever a rotation is unchanged (legs, untouched frames)
+            write_take(out, skel, clip, name=name, blend=blend, reference=getattr(self.file_clip, "file_euler", None))
 
     def to_file(self, local_rotations: np.ndarray, root_positions: np.ndarray) -> tuple[Skeleton, Clip]:
         """An engine result (cm, rig joints) as a take on the file's own skeleton and units."""

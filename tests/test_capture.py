@@ -1,0 +1,197 @@
+"""Real capture in, real capture out (issue 15): rig profiles, adapt --bvh, a
+user's own library. The CMU golf swing is read from ../shared/mocap; the other
+skeletons are small synthetic swings named as each family names its joints
+(tests/capture_kit.py). Results are read back by an independent reader and FK."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import capture_kit as kit
+from engine import bvh, profiles
+from engine.adapt import Adapter
+from engine.capture import load_capture
+
+CLI = [sys.executable, "-c", "from app.cli import main; main()"]
+CMU_UNIT = 5.6444
+
+
+def run(*args):
+    return subprocess.run(CLI + [str(a) for a in args], capture_output=True, text=True, timeout=600)
+
+
+def refused(r, *words):
+    assert r.returncode == 2, r.stdout + r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:"), r.stderr
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("family,expected,order", [
+    ("cmu", "cmu", "ZYX"), ("mixamo", "mixamo", "XYZ"), ("neuron", "neuron", "ZYX"), ("generic", "generic", "ZXY")])
+def test_profile_detected_from_joint_names(tmp_path, family, expected, order):
+    path = kit.write_family(tmp_path / f"{family}.bvh", family, order=order,
+                            scale=CMU_UNIT if family == "cmu" else 1.0)
+    skel, _ = bvh.read(path)
+    profile, roles = profiles.detect(skel)
+    assert profile.name == expected
+    names = [n.split(":")[-1] for n in skel.names]
+    assert names[roles["hips"]] in ("Hips", "pelvis")
+    assert len(roles["spine"]) == 3 and roles["left_hand"] != roles["right_hand"]
+
+
+def test_cmu_golf_is_cmu_and_its_impact_is_found():
+    if not kit.GOLF.is_file():
+        pytest.fail(f"{kit.GOLF} missing (../shared/mocap)")
+    cap = load_capture(kit.GOLF)
+    assert cap.profile.name == "cmu" and cap.scale == pytest.approx(CMU_UNIT)
+    assert cap.hit.first_frame == 1          # frame 0 is the conversion's T-pose
+    assert abs(cap.hit.frame - 373) <= 3, cap.hit
+    assert 3.0 < cap.hit.peak_speed_ms < 6.0  # the hands' fastest, about 4 m/s (mocap README)
+
+
+def _file_hands(b, lead="LeftHand", trail="RightHand", unit=1.0):
+    p = kit.fk(b) * unit
+    i, j = b["names"].index(lead), b["names"].index(trail)
+    return 0.5 * (p[:, i] + p[:, j]), np.linalg.norm(p[:, i] - p[:, j], axis=-1)
+
+
+def _columns(b, names):
+    """Data columns of the named joints."""
+    cols, c = [], 0
+    for n, ch in zip(b["names"], b["channels"]):
+        if n in names:
+            cols += range(c, c + len(ch))
+        c += len(ch)
+    return cols
+
+
+def test_cmu_golf_adapted_by_an_offset_comes_back_on_its_skeleton(tmp_path):
+    out = tmp_path / "golf_adapted.bvh"
+    offset = np.array([12.0, -6.0, 9.0])
+    r = run("adapt", "--bvh", kit.GOLF, "--offset", *offset, "--out", out)
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout)
+    assert summary["profile"] == "cmu" and summary["scale"] == pytest.approx(CMU_UNIT)
+    assert abs(summary["hit_frame"] - 373) <= 3 and "address" in summary["hit_frame_method"]
+    assert summary["bat_error_cm"] < 0.01 and summary["max_grip_error_cm"] < 0.5
+    src, res = kit.read_bvh(kit.GOLF), kit.read_bvh(out)
+    for key in ("names", "parents", "channels"):
+        assert src[key] == res[key]
+    np.testing.assert_allclose(res["offsets"], src["offsets"], atol=1e-9)
+    h = summary["hit_frame"]
+    mid0, dist0 = _file_hands(src, unit=CMU_UNIT)
+    mid1, dist1 = _file_hands(res, unit=CMU_UNIT)
+    assert np.linalg.norm(mid1[h] - mid0[h] - offset) < 1.0
+    assert np.abs(dist1 - dist0).max() < 0.5          # the trail hand stays on the grip
+    legs = [n for n in src["names"] if "Leg" in n or "Foot" in n or "Toe" in n or "Hip" in n]
+    cols = _columns(src, legs)
+    np.testing.assert_array_equal(res["data"][:, cols], src["data"][:, cols])   # hips and legs as captured
+    np.testing.assert_array_equal(res["data"][[0, -1]], src["data"][[0, -1]])   # first and last frames
+    assert np.abs(res["data"] - src["data"]).max() > 1.0                        # and the arms did move
+
+
+def test_units_of_a_file_in_metres_are_found_and_offsets_stay_in_cm(tmp_path):
+    path = kit.write_family(tmp_path / "metres.bvh", "generic", scale=100.0)
+    out = tmp_path / "out.bvh"
+    r = run("adapt", "--bvh", path, "--offset", 0, 8, 6, "--out", out)
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert s["profile"] == "generic" and s["scale"] == 100.0
+    src, res = kit.read_bvh(path), kit.read_bvh(out)
+    mid0, _ = _file_hands(src, "hand_l", "hand_r", unit=100.0)
+    mid1, _ = _file_hands(res, "hand_l", "hand_r", unit=100.0)
+    h = s["hit_frame"]
+    assert np.linalg.norm(mid1[h] - mid0[h] - [0, 8, 6]) < 1.0
+
+
+def test_mixamo_six_channels_xyz_keep_their_channels_and_positions(tmp_path):
+    path = kit.write_family(tmp_path / "mixamo.bvh", "mixamo", order="XYZ")
+    out = tmp_path / "out.bvh"
+    r = run("adapt", "--bvh", path, "--profile", "mixamo", "--hit-frame", 40, "--offset", -7, 4, 5, "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["hit_frame"] == 40
+    src, res = kit.read_bvh(path), kit.read_bvh(out)
+    assert res["channels"] == src["channels"] and all(len(c) == 6 for c in res["channels"])
+    pos_cols = [c for c, ch in enumerate(ch for chans in src["channels"] for ch in chans) if ch.endswith("position")]
+    np.testing.assert_allclose(res["data"][:, pos_cols], src["data"][:, pos_cols], atol=1e-9)
+    mid0, dist0 = _file_hands(src, "mixamorig:LeftHand", "mixamorig:RightHand")
+    mid1, dist1 = _file_hands(res, "mixamorig:LeftHand", "mixamorig:RightHand")
+    assert np.linalg.norm(mid1[40] - mid0[40] - [-7, 4, 5]) < 1.0
+    assert np.abs(dist1 - dist0).max() < 0.5
+
+
+def test_a_left_hander_gives_the_mirrored_result(tmp_path):
+    right = load_capture(kit.write_family(tmp_path / "r.bvh", "cmu", scale=CMU_UNIT))
+    left = load_capture(kit.write_family(tmp_path / "l.bvh", "cmu", scale=CMU_UNIT, mirrored=True),
+                        handedness="left")
+    assert left.rig.skeleton.names[left.rig.wrist] == "RightHand"     # the right hand leads
+    mirror = np.array([-1.0, 1.0, 1.0])
+    offset = np.array([9.0, 4.0, -7.0])
+    a = Adapter(right.rig, right.shot).adapt(right.shot.hit_point + offset)
+    b = Adapter(left.rig, left.shot).adapt(left.shot.hit_point + offset * mirror)
+    J = right.file_skeleton.num_joints
+    twin = [left.file_skeleton.names.index(kit._mirror_name(n)) for n in right.file_skeleton.names]
+    np.testing.assert_allclose(a.global_positions[:, :J] * mirror, b.global_positions[:, twin], atol=1e-3)
+    assert a.bat_error_cm < 0.01 and b.bat_error_cm < 0.01
+
+
+def test_user_library_init_list_adapt(tmp_path):
+    for name, shift in (("swing_a", 1.0), ("swing_b", 1.0)):
+        kit.write_family(tmp_path / f"{name}.bvh", "neuron", frames=50 if name == "swing_b" else 60)
+    r = run("library", "init", tmp_path, "--json")
+    assert r.returncode == 0, r.stderr
+    entries = json.loads(r.stdout)
+    assert [e["name"] for e in entries] == ["swing_a", "swing_b"] and {e["profile"] for e in entries} == {"neuron"}
+    refused(run("library", "init", tmp_path), "exists already")
+    r = run("shots", "--library", tmp_path, "--json")
+    assert r.returncode == 0, r.stderr
+    assert [s["hit_frame"] for s in json.loads(r.stdout)] == [e["hit_frame"] for e in entries]
+    out = tmp_path / "out.bvh"
+    hit = json.loads(r.stdout)[1]["hit_point"]
+    r = run("adapt", "--library", tmp_path, "--shot", "swing_b", "--hit", hit[0] + 5, hit[1], hit[2] - 5, "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["bat_error_cm"] < 0.01
+    src, res = kit.read_bvh(tmp_path / "swing_b.bvh"), kit.read_bvh(out)
+    assert res["names"] == src["names"] and res["channels"] == src["channels"]   # the user's skeleton
+
+
+def test_a_library_mixing_skeletons_is_refused(tmp_path):
+    kit.write_family(tmp_path / "a.bvh", "neuron")
+    kit.write_family(tmp_path / "b.bvh", "generic")
+    refused(run("library", "init", tmp_path), "different skeletons", "a.bvh", "b.bvh")
+    assert not (tmp_path / "library.json").exists()
+
+
+def test_bad_input_is_one_line(tmp_path):
+    refused(run("adapt", "--bvh", kit.GOLF, "--profile", "mixamo", "--offset", 1, 0, 0),
+            "names joints the file lacks")
+    refused(run("adapt", "--bvh", kit.GOLF, "--hit-frame", 494, "--offset", 1, 0, 0), "outside", "0..493")
+    refused(run("adapt", "--bvh", kit.GOLF, "--profile", "nosuch", "--offset", 1, 0, 0), "unknown profile")
+    refused(run("adapt", "--bvh", kit.GOLF), "--offset")
+    strange = tmp_path / "strange.bvh"
+    strange.write_text("HIERARCHY\nROOT a0\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Yrotation Xrotation\n"
+                       " JOINT a1\n {\n  OFFSET 0 1 0\n  CHANNELS 3 Zrotation Yrotation Xrotation\n"
+                       "  End Site\n  {\n   OFFSET 0 1 0\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n"
+                       "0 0 0 0 0 0\n0 0 0 0 0 0\n")
+    refused(run("adapt", "--bvh", strange, "--offset", 1, 0, 0), "fits no profile", "a0", "a1")
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    kit.write_family(folder / "good.bvh", "neuron")
+    (folder / "broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n OFFSET 0 zero 0\n")
+    refused(run("library", "init", folder), "broken.bvh")
+    refused(run("shots", "--library", tmp_path / "nowhere"), "library.json")
+
+
+def test_our_own_output_comes_back_with_the_hitpoint_profile(tmp_path):
+    out = tmp_path / "ours.bvh"
+    r = run("adapt", "--shot", "cover_drive", "--hit", -70, 45, 215, "--out", out)
+    assert r.returncode == 0, r.stderr
+    cap = load_capture(out, hit_frame=30)
+    assert cap.profile.name == "hitpoint" and not cap.appended
+    assert cap.rig.skeleton.names[cap.rig.bat_joint] == "Bat"
