@@ -175,7 +175,8 @@ def build_rig(profile: Profile, roles: dict, skel: Skeleton, effector: int) -> R
     animated = J
     while animated > 0 and not skel.channel_orders[animated - 1]:   # PCA: the animated joints come first
         animated -= 1
-    return Rig(skel, dof, limits, chains, bat, BALL_DIAMETER_CM / 2, roles[f"{lead}_hand"], 0, feet, animated)
+    return Rig(skel, dof, limits, chains, bat, BALL_DIAMETER_CM / 2, roles[f"{lead}_hand"], 0, feet, animated,
+               dict(roles))
 
 
 def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: int | str = "auto",
@@ -210,6 +211,13 @@ def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: i
             clip.local_positions = np.concatenate(
                 [clip.local_positions, np.broadcast_to(skel.offsets[-1], (clip.num_frames, 1, 3))], axis=1)
     rig = build_rig(prof, roles, skel, effector)
+    if "axis" not in rig.bat:   # the implement's shaft: from the lead hand through the trail hand
+        lead, trail = roles[f"{prof.lead}_hand"], roles[f"{prof.trail}_hand"]
+        h = hit.frame
+        axis = quat.rotate(quat.conjugate(grot[h, lead]), gpos[h, trail] - gpos[h, lead])
+        rig.bat["axis"] = (axis / max(float(np.linalg.norm(axis)), 1e-9)).tolist()
+    if "face_normal" not in rig.bat:
+        rig.bat["face_normal"] = _leading_side(rig, clip, grot, gpos, hit.frame).tolist()
     shot = Shot(path.stem, path.name, hit.frame, f"{prof.name} capture", skel, clip, effector)
     cap = Capture(path, prof, roles, cm, file_skel, file_clip, rig, shot, hit, appended)
     shot.capture = cap
@@ -239,3 +247,20 @@ def _implement(prof: Profile, roles: dict, skel: Skeleton, grot_hit: np.ndarray,
     offset = quat.rotate(quat.conjugate(grot_hit[hand]), point - gpos_hit[hand])
     skel = _with_implement(skel, hand, offset)
     return skel, skel.num_joints - 1, True
+
+
+def _leading_side(rig: Rig, clip: Clip, grot: np.ndarray, gpos: np.ndarray, h: int) -> np.ndarray:
+    """An implement's face when the file cannot say: the side that leads the swing at
+    the hit frame (its velocity there, square to the shaft), in the lead hand's frame."""
+    F, eff, hand = clip.num_frames, rig.bat_joint, int(rig.skeleton.parents[rig.bat_joint])
+    a, b = max(h - 1, 0), min(h + 1, F - 1)
+    off = rig.skeleton.offsets[eff]
+    p = gpos[[a, b], hand] + quat.rotate(grot[[a, b], hand], np.broadcast_to(off, (2, 3)))
+    v = p[1] - p[0]
+    axis_w = quat.rotate(grot[h, hand], np.asarray(rig.bat["axis"], float))
+    v = v - axis_w * float(v @ axis_w)
+    n = np.linalg.norm(v)
+    if n < 1e-9:        # a still implement: any side square to the shaft
+        v = np.cross(axis_w, [0.0, 1.0, 0.0])
+        n = max(float(np.linalg.norm(v)), 1e-9)
+    return quat.rotate(quat.conjugate(grot[h, hand]), v / n)

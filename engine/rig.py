@@ -37,6 +37,7 @@ class Rig:
     wrist_default_dof: int
     feet: dict[str, list[int]] = field(default_factory=dict)
     animated_joints: int = 0  # joints that carry animation (PCA parameters)
+    roles: dict = field(default_factory=dict)  # role -> joint(s), for a rig built from a profile
 
     @property
     def bat_joint(self) -> int:

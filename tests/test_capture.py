@@ -195,3 +195,40 @@ def test_our_own_output_comes_back_with_the_hitpoint_profile(tmp_path):
     cap = load_capture(out, hit_frame=30)
     assert cap.profile.name == "hitpoint" and not cap.appended
     assert cap.rig.skeleton.names[cap.rig.bat_joint] == "Bat"
+
+
+def test_a_user_skeleton_is_drawn_as_capsules_where_its_joints_project(tmp_path):
+    """The viewer's renderer on a foreign rig: a body from its bones, at its joints."""
+    from app.render import SceneRenderer, SceneView, look_at, offscreen_context, perspective, render_image
+    from engine.skeleton import bind_positions, skinning_matrices
+    cap = load_capture(kit.write_family(tmp_path / "n.bvh", "neuron"))
+    rig, shot = cap.rig, cap.shot
+    grot, gpos = shot.fk
+    h = shot.hit_frame
+    skin = skinning_matrices(grot[h], gpos[h], bind_positions(rig.skeleton))
+    ctx = offscreen_context()
+    try:
+        r = SceneRenderer(ctx, rig)
+        size = (320, 240)
+        view = look_at(np.array([-430.0, 150.0, 160.0]), gpos[h, 0])
+        proj = perspective(40.0, size[0] / size[1], 5.0, 12000.0)
+        body = render_image(r, SceneView(view, proj, size, skin, shadows=False)).astype(int)
+        empty = render_image(r, SceneView(view, proj, size, None, shadows=False)).astype(int)
+    finally:
+        ctx.release()
+    mask = np.abs(body - empty).sum(-1) > 12
+    assert mask.sum() > 800
+    clip = (proj @ view @ np.c_[gpos[h], np.ones(len(gpos[h]))].T).T
+    px = np.c_[(clip[:, 0] / clip[:, 3] * 0.5 + 0.5) * size[0], (0.5 - clip[:, 1] / clip[:, 3] * 0.5) * size[1]]
+    rows, cols = np.nonzero(mask)
+    assert cols.min() >= px[:, 0].min() - 30 and cols.max() <= px[:, 0].max() + 60
+    assert rows.min() >= px[:, 1].min() - 40 and rows.max() <= px[:, 1].max() + 30
+
+
+def test_view_opens_a_user_library(tmp_path):
+    kit.write_family(tmp_path / "swing.bvh", "generic")
+    assert run("library", "init", tmp_path).returncode == 0
+    shot = tmp_path / "view.png"
+    r = run("view", "--library", tmp_path, "--headless", "--frames", 3, "--screenshot", shot)
+    assert r.returncode == 0 and shot.is_file(), r.stderr
+    refused(run("view", "--library", tmp_path / "none", "--headless", "--frames", 1), "no shot library")

@@ -30,8 +30,8 @@ def view(
                                                    "(also in a window: benchmarks of the real present path).")] = None,
     screenshot: Annotated[Optional[Path], typer.Option("--screenshot", help="Write the last frame as PNG.")] = None,
     stats: Annotated[Optional[Path], typer.Option("--stats", help="Write frame-time statistics as JSON.")] = None,
-    library: Annotated[Optional[Path], typer.Option("--library", help="Shot library manifest "
-                                                    "(default: bundled).")] = None,
+    library: Annotated[Optional[Path], typer.Option("--library", help="A shot library: a folder "
+                                                    "with library.json, or the manifest (default: bundled).")] = None,
     fresh: Annotated[bool, typer.Option("--fresh", help="Start clean, not from the last session; that one "
                                         "is kept (renamed session.before-fresh-<time>.json) once this one "
                                         "changes.")] = False,
@@ -51,8 +51,9 @@ def view(
     if script is not None:
         from app.viewer.script import ScriptPlayer, load_script
         player = ScriptPlayer(load_script(script), str(script), frame_budget=frames or None)
-    if library is not None and not library.is_file():
-        raise UserError(f"{library}: shot library not found")
+    if library is not None and not (library.is_file() or (library / "library.json").is_file()):
+        raise UserError(f"{library}: no shot library (a library.json, or a folder holding one: "
+                        f"hitpoint library init FOLDER writes it)")
     _check_outputs(screenshot, stats)
     from app import softgl
     if software_gl not in softgl.MODES:

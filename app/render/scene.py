@@ -82,6 +82,21 @@ def _samples(fbo) -> int:
     return int(getattr(fbo, "samples", 0) or 0)
 
 
+def _body_meshes(rig, meshes: dict, own: bool) -> tuple[list, object]:
+    """The body's levels of detail (finest first) and its shadow caster: the batsman's
+    (``own``: the rig is his), or capsules along the bones of another skeleton."""
+    if not own:
+        from app.render.bonebody import bone_body
+        return [bone_body(rig, rig.roles.get("head"), rig.bat.get("axis"))], None
+    levels = [meshes["Batsman"]]         # a missing level ends the chain
+    for name in ("BatsmanLod1", "BatsmanLod2"):
+        if meshes.get(name) is None or meshes[name].joints is None:
+            break
+        levels.append(meshes[name])
+    caster = meshes.get("BatsmanShadow")     # a third of the triangles, the same outline
+    return levels, caster if caster is not None and caster.joints is not None else None
+
+
 class SceneRenderer:
     def __init__(self, ctx, rig, glb_path=None, software_gl: bool | None = None):
         """Load ``assets/batsman.glb`` (or ``glb_path``) and the shaders; build the passes.
@@ -92,15 +107,12 @@ class SceneRenderer:
         self.ctx, self.rig = ctx, rig
         self.software_gl = softgl.enabled(ctx) if software_gl is None else bool(software_gl)
         self.bind_positions = bind_positions(rig.skeleton)
-        meshes = load_glb(glb_path, rig)
-        self.body_mesh = meshes["Batsman"]
-        self.body_levels = [self.body_mesh]        # finest first; a missing level ends the chain
-        for name in ("BatsmanLod1", "BatsmanLod2"):
-            if meshes.get(name) is None or meshes[name].joints is None:
-                break
-            self.body_levels.append(meshes[name])
-        caster = meshes.get("BatsmanShadow")     # a third of the triangles, the same outline
-        self.shadow_mesh = caster if caster is not None and caster.joints is not None else None
+        try:
+            meshes, own = load_glb(glb_path, rig), True
+        except ValueError:     # a skeleton the batsman is not skinned to (a user's capture)
+            meshes, own = load_glb(glb_path), False
+        self.body_levels, self.shadow_mesh = _body_meshes(rig, meshes, own)
+        self.body_mesh = self.body_levels[0]
         J = rig.skeleton.num_joints
         self.p = build_programs(ctx, 1.0 / SHADOW_SIZE)
         skin = skin_programs(ctx, J)

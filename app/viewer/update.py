@@ -16,8 +16,8 @@ from app.viewer.state import AppState, Pose
 from engine import ballistics
 from engine.adapt import Adapter
 from engine.choice import BALL_START, choose_shot
-from engine.library import load_library as read_library
 from engine.rig import default_rig
+from engine.userlib import load_shots
 from engine.skeleton import bind_positions
 
 
@@ -27,10 +27,12 @@ FLIGHT_DT = 1.0 / 120.0   # s between samples of engine.ballistics.fly (its defa
 def load_library(state: AppState, manifest=None) -> bool:
     """(Re)load the rig and shot library; on failure keep what was loaded."""
     try:
-        rig = state.rig = state.rig or default_rig()   # the stage still draws without shots
-        shots = read_library(manifest, rig=rig)
+        state.rig = state.rig or _first_rig(manifest)   # the stage still draws without shots
+        rig, shots = load_shots(manifest)
         if not shots:
             raise ValueError("the shot library is empty")
+        if rig.skeleton.names != state.rig.skeleton.names and state.shots:
+            raise ValueError("its skeleton changed (restart the viewer to draw another skeleton)")
     except Exception as e:  # a bad file: say so, keep the last good library
         state.report(f"library: {e}")
         if not state.shots:   # nothing to fall back on: keep saying so
@@ -45,6 +47,15 @@ def load_library(state: AppState, manifest=None) -> bool:
     state.status["library"] = "ok"
     state.ball_start = np.asarray(BALL_START, float)
     return True
+
+
+def _first_rig(manifest):
+    """The rig the viewer starts with: the library's, or the bundled one when it cannot be read
+    (the stage and the message still show)."""
+    try:
+        return load_shots(manifest)[0]
+    except (ValueError, OSError):
+        return default_rig()
 
 
 def default_target(state: AppState, index: int | None = None) -> np.ndarray:
