@@ -232,3 +232,11 @@ def test_view_opens_a_user_library(tmp_path):
     r = run("view", "--library", tmp_path, "--headless", "--frames", 3, "--screenshot", shot)
     assert r.returncode == 0 and shot.is_file(), r.stderr
     refused(run("view", "--library", tmp_path / "none", "--headless", "--frames", 1), "no shot library")
+
+
+def test_render_strip_of_a_user_shot(tmp_path):
+    kit.write_family(tmp_path / "swing.bvh", "generic")
+    assert run("library", "init", tmp_path).returncode == 0
+    out = tmp_path / "strip.png"
+    r = run("render-strip", "--library", tmp_path, "--shot", "swing", "--frames", 3, "--out", out, "--hit", 0, 110, 45)
+    assert r.returncode == 0 and out.is_file(), r.stderr

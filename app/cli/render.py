@@ -55,12 +55,15 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def bat_segment(rig, global_rotations: np.ndarray, global_positions: np.ndarray) -> np.ndarray:
-    """Handle top and toe of the bat ``(..., 2, 3)`` from the LeftHand transform (``rig.bat``)."""
+    """Handle top and toe of the bat ``(..., 2, 3)`` from the lead hand's transform (``rig.bat``;
+    a user's skeleton: the bat its body is drawn with, app.render.bonebody)."""
+    from app.render.bonebody import BAT_BLADE_CM, BAT_HANDLE_CM, BAT_TOP_CM
     b = rig.bat
-    hand = rig.skeleton.index("LeftHand")
-    grip = np.asarray(b["left_grip"], float)
+    hand = int(rig.skeleton.parents[rig.bat_joint])
+    grip = np.asarray(b.get("left_grip", (0.0, 0.0, 0.0)), float)
     axis = np.asarray(b["axis"], float)
-    local = np.stack([grip - axis * b["grip_to_top"], grip + axis * (b["length"] - b["grip_to_top"])])
+    top, length = b.get("grip_to_top", BAT_TOP_CM), b.get("length", BAT_HANDLE_CM + BAT_BLADE_CM[0])
+    local = np.stack([grip - axis * top, grip + axis * (length - top)])
     r = global_rotations[..., hand, None, :]
     return global_positions[..., hand, None, :] + quat.rotate(np.broadcast_to(r, r.shape[:-2] + (2, 4)), local)
 
@@ -98,7 +101,8 @@ def render_strip(shot, rig, count: int, cell: tuple[int, int], adapted=None):
     frames = strip_frames(shot.num_frames, shot.hit_frame, count)
     g_rot, g_pos = shot.fk
     bats = bat_segment(rig, g_rot[frames], g_pos[frames])
-    head = rig.skeleton.index("Head")
+    head = rig.roles.get("head", rig.skeleton.index("Head") if "Head" in rig.skeleton.names else
+                         int(np.argmax(g_pos[frames[0], :, 1])))   # else the highest joint
     head_top = g_pos[frames, head] + quat.rotate(g_rot[frames, head], rig.skeleton.end_sites.get(head, np.zeros(3)) * 1.2)
     pts = np.concatenate([g_pos[frames].reshape(-1, 3), bats.reshape(-1, 3), head_top,
                           [[g_pos[frames, 0, 0].mean(), 0.0, g_pos[frames, 0, 2].mean()]]])

@@ -14,6 +14,7 @@ BONE_RADIUS = (0.09, 2.0, 6.0)         # radius = 9 % of the bone's length, with
 HEAD_RADIUS_CM = 10.0
 BAT_BLADE_CM = (56.0, 10.8, 4.0)       # length, width, thickness of a bat's blade
 BAT_HANDLE_CM = 30.0
+BAT_TOP_CM = 5.0                       # the handle's top above the lead hand
 MIN_BONE_CM = 1.0                      # shorter bones (CMU's zero-length joints) get no capsule
 
 
@@ -64,7 +65,7 @@ def _bat(rig, bind: np.ndarray, axis_world: np.ndarray, parts: list) -> None:
     import trimesh
     hand = int(rig.skeleton.parents[rig.bat_joint])
     axis = axis_world / np.linalg.norm(axis_world)
-    top = bind[hand] - axis * 5.0
+    top = bind[hand] - axis * BAT_TOP_CM
     handle = trimesh.creation.cylinder(radius=1.6, height=BAT_HANDLE_CM, sections=10)
     handle.apply_translation([0, 0, BAT_HANDLE_CM / 2])
     parts.append(_part(_oriented(handle, top, top + axis * BAT_HANDLE_CM), hand, WILLOW))
