@@ -14,7 +14,7 @@ EXTENSIONS = (".bvh", ".csv", ".glb", ".gltf")
 
 
 def write_take(out: str | Path, skeleton: Skeleton, clip: Clip, *, name: str, limits: np.ndarray | None = None,
-               blend: np.ndarray | None = None, reference: np.ndarray | None = None) -> None:
+               blend: np.ndarray | None = None, reference: np.ndarray | None = None, takes: list | None = None) -> None:
     """Write ``clip`` on ``skeleton`` to ``out`` (format by extension).
 
     ``name`` names the animation (glTF); BVH and CSV Euler angles are continuous
@@ -22,13 +22,14 @@ def write_take(out: str | Path, skeleton: Skeleton, clip: Clip, *, name: str, li
     (J, 3, 2) degrees (each joint's channel order) at frame 0, keeping
     ``reference`` (F, J, 3) -- the source file's numbers -- where the rotation is
     unchanged; ``blend`` (F,) is the importance blend written as the CSV's second
-    column."""
+    column. ``takes``: the glTF's animations (:func:`shot_takes`: the adapted
+    take and the source, with the ball); default one take, ``clip``."""
     suffix = Path(out).suffix.lower()
     if suffix == ".bvh":
         bvh.write(out, skeleton, clip, limits=limits, reference=reference)
     elif suffix in (".glb", ".gltf"):
         from .gltf_export import write_gltf  # pygltflib: only when a glTF is written
-        write_gltf(out, skeleton, clip, name=name)
+        write_gltf(out, skeleton, clip if takes is None else takes, name=name)
     elif suffix == ".csv":
         write_csv(out, skeleton, clip, limits, blend, reference)
     else:
@@ -49,3 +50,46 @@ def write_csv(out, skeleton: Skeleton, clip: Clip, limits: np.ndarray | None, bl
             f"{v:.6f}" for v in e[f].reshape(-1)]
         rows.append(",".join(vals))
     bvh.atomic_write_text(out, "\n".join(rows) + "\n")
+
+
+def ball_track(rig, shot, clip: Clip, hit_point: np.ndarray, ball_start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The ball of a take ``(K,)`` s and ``(K, 3)`` cm: on its straight line from
+    ``ball_start``, at ``hit_point`` exactly at the shot's hit frame, then its flight
+    off the bat (engine.ballistics.shot_flight) to the end of the clip."""
+    from . import ballistics  # numba: only when a glTF with the ball is written
+    from .skeleton import clip_fk
+    h, fps, F = shot.hit_frame, clip.fps, clip.num_frames
+    before = np.arange(h + 1)
+    incoming = ballistics.incoming_ball(ball_start, hit_point, h, before, fps)
+    g_rot, g_pos = clip_fk(shot.skeleton, clip)
+    after = max(F - 1 - h, 0) / fps
+    fl, _ = ballistics.shot_flight(rig, shot, g_rot, g_pos, ball_start, hit_point, duration=after)
+    dt = 1.0 / 120.0                                  # the flight's own sampling (Flight.path)
+    k = np.arange(1, len(fl.path))
+    keep = k * dt <= after + 1e-9
+    times = np.concatenate([before / fps, h / fps + k[keep] * dt])
+    return times, np.concatenate([incoming, fl.path[1:][keep]])
+
+
+def shot_takes(rig, shot, clip: Clip, hit_point: np.ndarray, ball_start: np.ndarray,
+               source_hit_point: np.ndarray | None = None) -> list:
+    """The two animations of an adapted shot's glTF: the adapted ``clip`` (meeting
+    ``hit_point``, cm) and the source, each with its ball and its extras (take,
+    shot, fps, hit frame and time, hit point in m and cm, units)."""
+    from .gltf_export import METRES_PER_CM, Take
+    from .skeleton import clip_fk
+    src_point = clip_fk(shot.skeleton, shot.clip)[1][shot.hit_frame, shot.bat_joint] \
+        if source_hit_point is None else np.asarray(source_hit_point, float)
+    takes = []
+    for kind, take_clip, point in (("adapted", clip, np.asarray(hit_point, float)), ("source", shot.clip, src_point)):
+        cm = [round(float(v), 2) for v in point]
+        name = f"{shot.name}_source" if kind == "source" else \
+            f"{shot.name}_hit_{'_'.join(f'{v:.0f}' for v in point)}cm"
+        times, ball = ball_track(rig, shot, take_clip, point, ball_start)
+        extras = {"take": kind, "shot": shot.name, "hit_frame": int(shot.hit_frame),
+                  "hit_time_s": round(shot.hit_frame / take_clip.fps, 6), "hit_point_cm": cm,
+                  "hit_point_m": [round(v * METRES_PER_CM, 6) for v in cm],
+                  "frame_numbering": "frame n at n / fps s (frame 0 at 0 s): Blender at the same frame rate "
+                                     "shows frame n at its frame n"}
+        takes.append(Take(name, take_clip, extras, times, ball))
+    return takes

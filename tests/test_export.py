@@ -10,6 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
+from conftest import ROOT
 from app.render.mesh import _accessor, load_glb
 from engine import bvh, quat
 from engine.gltf_export import METRES_PER_CM, write_gltf
@@ -47,10 +48,10 @@ class GltfFile:
         s = np.array([node.scale or [1, 1, 1] for node in nodes], float)
         return t, r, s
 
-    def sample(self, times):
+    def sample(self, times, animation=0):
         """Node TRS ``(T, n, ...)`` at ``times`` (s): LINEAR channels, lerp / slerp."""
         t, r, s = (np.repeat(a[None], len(times), 0) for a in self.rest_trs())
-        anim = self.gltf.animations[0]
+        anim = self.gltf.animations[animation]
         for ch in anim.channels:
             smp = anim.samplers[ch.sampler]
             assert smp.interpolation == "LINEAR"
@@ -96,14 +97,14 @@ class GltfFile:
     def skin_joint_names(self):
         return [self.gltf.nodes[j].name for j in self.gltf.skins[0].joints]
 
-    def joint_world_positions(self, times, names):
-        """``(T, J, 3)`` world positions (m) of the joint nodes ``names``."""
-        world = self.world_matrices(*self.sample(times))
+    def joint_world_positions(self, times, names, animation=0):
+        """``(T, J, 3)`` world positions (m) of the (joint) nodes ``names``."""
+        world = self.world_matrices(*self.sample(times, animation))
         index = {n.name: i for i, n in enumerate(self.gltf.nodes)}
         return world[:, [index[n] for n in names]][..., :3, 3]
 
-    def frame_times(self):
-        return self.array(self.gltf.animations[0].samplers[0].input)[:, 0].astype(float)
+    def frame_times(self, animation=0):
+        return self.array(self.gltf.animations[animation].samplers[0].input)[:, 0].astype(float)
 
 
 # ----------------------------------------------------------------- clips
@@ -181,26 +182,26 @@ def test_inverse_binds_match_the_rest_pose_and_skin_the_mesh_like_the_engine(rig
     ibm = f.array(f.gltf.skins[0].inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)  # column-major
     index = {n.name: i for i, n in enumerate(f.gltf.nodes)}
     joints = [index[n] for n in names]
-    # rest pose: each joint's world matrix times its inverse bind is the file's unit scale alone
+    # rest pose: each joint's world matrix times its inverse bind is the identity (no scale anywhere)
     rest = f.world_matrices(*(a[None] for a in f.rest_trs()))[0, joints]
-    np.testing.assert_allclose(rest @ ibm, np.broadcast_to(np.diag([METRES_PER_CM] * 3 + [1.0]), rest.shape),
-                               atol=1e-7)
+    np.testing.assert_allclose(rest @ ibm, np.broadcast_to(np.eye(4), rest.shape), atol=1e-7)
     rig_index = [rig.skeleton.names.index(n) for n in names]
-    np.testing.assert_allclose(-ibm[:, :3, 3], bind_positions(rig.skeleton)[rig_index], atol=1e-4)
+    np.testing.assert_allclose(-ibm[:, :3, 3], bind_positions(rig.skeleton)[rig_index] * METRES_PER_CM, atol=1e-6)
     # skin the bundled mesh from the file's joints and from the engine's skinning matrices
     mesh = load_glb(rig=rig)["Batsman"]
-    prim = f.gltf.meshes[f.gltf.nodes[index["Batsman"]].mesh].primitives[0]
-    np.testing.assert_array_equal(f.array(prim.attributes.POSITION), mesh.positions)
+    prim = f.gltf.meshes[f.gltf.nodes[index["Batsman_body"]].mesh].primitives[0]
+    np.testing.assert_allclose(f.array(prim.attributes.POSITION), mesh.positions * METRES_PER_CM, rtol=1e-6)
     skin_joint = f.array(prim.attributes.JOINTS_0).astype(int)         # indices into skin.joints
     weights = f.array(prim.attributes.WEIGHTS_0).astype(float)
     world = f.world_matrices(*f.sample(f.frame_times()))[:, joints]    # (F, Js, 4, 4)
     g_rot, g_pos = clip_fk(rig.skeleton, clip)
     engine_m = skinning_matrices(g_rot, g_pos, bind_positions(rig.skeleton)).astype(float)  # (F, J, 4, 4)
     v = np.concatenate([mesh.positions, np.ones((len(mesh.positions), 1))], 1).astype(float)
+    v_file = np.concatenate([f.array(prim.attributes.POSITION), np.ones((len(mesh.positions), 1))], 1)
     for fr in (0, clip.num_frames - 1):
         file_m = np.einsum("vk,vkij->vij", weights, (world[fr] @ ibm)[skin_joint])
         eng_m = np.einsum("vk,vkij->vij", mesh.weights.astype(float), engine_m[fr][mesh.joints])
-        got = np.einsum("vij,vj->vi", file_m, v)[:, :3]
+        got = np.einsum("vij,vj->vi", file_m, v_file)[:, :3]
         want = np.einsum("vij,vj->vi", eng_m, v)[:, :3] * METRES_PER_CM
         assert np.abs(got - want).max() < 2e-3 * METRES_PER_CM    # float32 matrices on ~200 cm
 
@@ -300,10 +301,84 @@ def test_adapt_out_glb_and_gltf(shots, tmp_path):
     rig_skel, clip = conform_to_rig_of(shot, skel, clip)
     for ext in ("glb", "gltf"):
         f = GltfFile(files[ext])
-        assert f.gltf.animations[0].name == f"{shot.name}_adapted"
+        assert f.gltf.animations[0].name == f"{shot.name}_hit_{'_'.join(f'{v:.0f}' for v in hit)}cm"
+        assert f.gltf.animations[1].name == f"{shot.name}_source"
         got = f.joint_world_positions(f.frame_times(), rig_skel.names)
         # the BVH keeps 9 decimals of Euler degrees: the same motion to ~1e-5 cm
         assert np.abs(got - clip_fk(rig_skel, clip)[1] * METRES_PER_CM).max() < TOL_M
+
+
+def test_adapted_glb_holds_both_takes_with_the_ball_at_the_hit(rig, shots, tmp_path):
+    from engine import choice
+    from engine.skeleton import clip_fk
+    shot = shots[1]
+    hit = shot.hit_point + np.array([6.0, -4.0, 8.0])
+    code, out, err = adapt("--shot", shot.name, "--hit", *hit, "--out", tmp_path / "a.glb")
+    assert code == 0, err
+    skel, adapted = conform_to_rig_of(shot, *bvh_of(shot, hit, tmp_path))
+    f = GltfFile(tmp_path / "a.glb")
+    g = f.gltf
+    assert [n.name for n in g.nodes if n.mesh is not None] == ["Batsman_body", "Ball"]   # the visible body only
+    assert all((n.scale or [1, 1, 1]) == [1, 1, 1] for n in g.nodes)                    # no stray scale
+    root = g.nodes[g.scenes[g.scene].nodes[0]]
+    assert root.name == "Batsman" and root.translation is None and root.rotation is None
+    h = shot.hit_frame
+    for i, (take, clip, point) in enumerate([("adapted", adapted, hit), ("source", shot.clip, shot.hit_point)]):
+        ex = g.animations[i].extras
+        assert ex["take"] == take and ex["shot"] == shot.name and ex["hit_frame"] == h
+        assert ex["fps"] == round(clip.fps, 3) and ex["frames"] == clip.num_frames and "metres" in ex["units"]
+        np.testing.assert_allclose(ex["hit_point_cm"], point, atol=0.01)
+        np.testing.assert_allclose(ex["hit_time_s"], h / clip.fps, atol=1e-6)
+        t = np.array([h - 1, h, h + 1]) / clip.fps
+        ball, bat = (f.joint_world_positions(t, [n], i)[:, 0] for n in ("Ball", "Bat"))
+        np.testing.assert_allclose(ball[1], point * METRES_PER_CM, atol=1e-5)            # meets the bat ...
+        np.testing.assert_allclose(bat[1], clip_fk(skel, clip)[1][h, skel.index("Bat")] * METRES_PER_CM,
+                                   atol=1e-5)
+        assert np.linalg.norm(ball[1] - bat[1]) < 1e-4
+        incoming = choice.BALL_START * METRES_PER_CM - ball[1]
+        assert np.dot(ball[0] - ball[1], incoming) > 0                                  # ... coming in ...
+        assert np.linalg.norm(ball[2] - bat[2]) > 0.05                                  # ... and flies off
+    got = f.joint_world_positions(f.frame_times(1), skel.names, 1)
+    assert np.abs(got - shot.fk[1] * METRES_PER_CM).max() < TOL_M                       # the source take
+
+
+def bvh_of(shot, hit, tmp_path):
+    code, out, err = adapt("--shot", shot.name, "--hit", *hit, "--out", tmp_path / "a.bvh")
+    assert code == 0, err
+    return bvh.read(tmp_path / "a.bvh")
+
+
+VALIDATOR = ROOT / ".venv" / "gltf-validator" / "node_modules" / "gltf-validator"
+
+
+def validate(path):
+    """The Khronos glTF validator's report of ``path`` (npm gltf-validator, run by node)."""
+    import shutil
+    import subprocess
+    if shutil.which("node") is None or not VALIDATOR.exists():
+        pytest.skip("the Khronos glTF validator needs node and npm gltf-validator in .venv/gltf-validator "
+                    "(.ci/run installs both)")
+    script = ("const v=require(process.argv[1]);const fs=require('fs');"
+              "v.validateBytes(new Uint8Array(fs.readFileSync(process.argv[2])))"
+              ".then(r=>console.log(JSON.stringify(r.issues)))")
+    done = subprocess.run(["node", "-e", script, str(VALIDATOR), str(path)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+@pytest.mark.parametrize("ext", ["glb", "gltf"])
+def test_khronos_validator_finds_no_error_and_no_warning(shots, tmp_path, ext):
+    shot = shots[2]
+    code, _, err = adapt("--shot", shot.name, "--hit", *(shot.hit_point + 5), "--out", tmp_path / f"a.{ext}")
+    assert code == 0, err
+    issues = validate(tmp_path / f"a.{ext}")
+    assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), issues["messages"][:5]
+
+
+def test_khronos_validator_on_the_bundled_mesh():
+    issues = validate(ROOT / "assets" / "batsman.glb")
+    assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), issues["messages"][:5]
 
 
 def conform_to_rig_of(shot, skel, clip):

@@ -11,11 +11,16 @@ to ``engine.rig.default_rig().skeleton`` with computed weights:
 * at most 4 influences per vertex, summing to 1;
 * the bat (geometry from ``rig.bat``) is bound 100 % to LeftHand.
 
-The glTF 2.0 binary holds one skinned mesh ``Batsman`` (vertex colours COLOR_0,
-a per-vertex gloss ``_GLOSS``), a coarse skinned copy ``BatsmanShadow`` (the same
-shapes at a lower ``detail``: the renderer's shadow caster), the joint nodes (names as in the rig, rest
+The glTF 2.0 binary holds one skinned mesh ``Batsman`` (node ``Batsman_body``; vertex
+colours COLOR_0, a per-vertex gloss ``_GLOSS``), a coarse skinned copy ``BatsmanShadow``
+(the same shapes at a lower ``detail``: the renderer's shadow caster), two levels of
+detail ``BatsmanLod1``/``BatsmanLod2``, the joint nodes (names as in the rig, rest
 frames world-aligned, so each inverse bind matrix is a translation by the
-negated bind position) and an unskinned ``Ball`` mesh. Units are cm.
+negated bind position) and an unskinned ``Ball`` mesh. Units are cm; the joints hang
+under the character's root node ``Batsman`` whose scale 0.01 shows him 1.8 m tall in
+glTF tools (metres). The default scene holds only him (root and body); the ball, the
+shadow caster and the levels of detail are in a second scene, so a user opening the
+file sees one batsman. (Exports, engine.gltf_export, are in metres with no scale.)
 """
 from __future__ import annotations
 
@@ -693,19 +698,27 @@ def write_glb(model: dict, path: Path) -> None:
     nodes = []
     for i, name in enumerate(skel.names):
         nodes.append(g.Node(name=name, translation=[float(x) for x in skel.offsets[i]],
-                            children=[int(c) for c in skel.children(i)]))
-    nodes.append(g.Node(name="Batsman", mesh=0, skin=0))
+                            children=[int(c) for c in skel.children(i)] or None))
+    nodes.append(g.Node(name="Batsman_body", mesh=0, skin=0))
     nodes.append(g.Node(name="Ball", mesh=1))
     for mi in range(2, len(meshes)):
         nodes.append(g.Node(name=meshes[mi].name, mesh=mi, skin=0))
     roots = [i for i in range(J) if skel.parents[i] < 0]
+    # The character's root: the data stay in cm (the viewer's unit), the one scale
+    # here makes glTF tools (metres) show him 1.8 m tall.
+    nodes.append(g.Node(name="Batsman", scale=[0.01] * 3, children=roots))
+    character = len(nodes) - 1
     gltf = g.GLTF2(
         asset=g.Asset(version="2.0", generator="hitpoint tools/make_batsman.py"),
         scene=0,
-        scenes=[g.Scene(name="Batsman", nodes=roots + list(range(J, len(nodes))))],
+        # what a user opening the file sees: the batsman; the renderer's extra meshes
+        # (ball, shadow caster, levels of detail) in a second scene of their own
+        scenes=[g.Scene(name="Batsman", nodes=[character, J]),
+                g.Scene(name="Hitpoint renderer meshes (ball, shadow caster, levels of detail)",
+                        nodes=[character] + list(range(J + 1, len(nodes) - 1)))],
         nodes=nodes,
         meshes=meshes,
-        skins=[g.Skin(name="rig", joints=list(range(J)), inverseBindMatrices=ibm_acc, skeleton=roots[0])],
+        skins=[g.Skin(name="rig", joints=list(range(J)), inverseBindMatrices=ibm_acc, skeleton=character)],
         materials=[g.Material(name="vertex_colour",
                               pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=[1, 1, 1, 1],
                                                                           metallicFactor=0.0,
