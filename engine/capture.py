@@ -194,6 +194,9 @@ def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: i
     else:
         prof = profile if isinstance(profile, Profile) else load_profile(profile)
         roles = resolve(prof, file_skel)
+    if prof.up != "y":      # role limits assume Y-up rest frames (assets/rig.json); say so, never guess
+        raise ProfileError(f"profile {prof.name!r}: up axis {prof.up!r} is not supported yet (re-export the "
+                           "file Y-up)")
     if handedness is not None:
         if handedness not in ("right", "left"):
             raise ProfileError(f"handedness must be right or left, got {handedness!r}")

@@ -240,3 +240,10 @@ def test_render_strip_of_a_user_shot(tmp_path):
     out = tmp_path / "strip.png"
     r = run("render-strip", "--library", tmp_path, "--shot", "swing", "--frames", 3, "--out", out, "--hit", 0, 110, 45)
     assert r.returncode == 0 and out.is_file(), r.stderr
+
+
+def test_a_z_up_profile_is_refused_not_guessed(tmp_path):
+    path = kit.write_family(tmp_path / "z.bvh", "generic")
+    prof = json.loads((profiles.profiles_dir() / "generic.json").read_text()) | {"up": "z", "name": "zup"}
+    (tmp_path / "zup.json").write_text(json.dumps(prof))
+    refused(run("adapt", "--bvh", path, "--profile", tmp_path / "zup.json", "--offset", 1, 0, 0), "up axis")
