@@ -3,18 +3,20 @@ BVH, CSV and glTF (binary .glb or .gltf). One entry point, :func:`write_take`,
 chosen by the file's extension; every writer is atomic."""
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
 
-from . import bvh
+from . import bvh, quat
 from .skeleton import Clip, Skeleton
 
 EXTENSIONS = (".bvh", ".csv", ".glb", ".gltf")
 
 
 def write_take(out: str | Path, skeleton: Skeleton, clip: Clip, *, name: str, limits: np.ndarray | None = None,
-               blend: np.ndarray | None = None, reference: np.ndarray | None = None, takes: list | None = None) -> None:
+               blend: np.ndarray | None = None, reference: np.ndarray | None = None, takes: list | None = None,
+               csv_rotations: str = "euler", csv_all_columns: bool = False) -> None:
     """Write ``clip`` on ``skeleton`` to ``out`` (format by extension).
 
     ``name`` names the animation (glTF); BVH and CSV Euler angles are continuous
@@ -23,7 +25,9 @@ def write_take(out: str | Path, skeleton: Skeleton, clip: Clip, *, name: str, li
     ``reference`` (F, J, 3) -- the source file's numbers -- where the rotation is
     unchanged; ``blend`` (F,) is the importance blend written as the CSV's second
     column. ``takes``: the glTF's animations (:func:`shot_takes`: the adapted
-    take and the source, with the ball); default one take, ``clip``."""
+    take and the source, with the ball); default one take, ``clip``.
+    ``csv_rotations`` "euler" (degrees) or "quaternion"; ``csv_all_columns`` keeps
+    columns that are zero in every frame (see :func:`csv_columns`)."""
     suffix = Path(out).suffix.lower()
     if suffix == ".bvh":
         bvh.write(out, skeleton, clip, limits=limits, reference=reference)
@@ -31,25 +35,52 @@ def write_take(out: str | Path, skeleton: Skeleton, clip: Clip, *, name: str, li
         from .gltf_export import write_gltf  # pygltflib: only when a glTF is written
         write_gltf(out, skeleton, clip if takes is None else takes, name=name)
     elif suffix == ".csv":
-        write_csv(out, skeleton, clip, limits, blend, reference)
+        write_csv(out, skeleton, clip, limits, blend, reference, csv_rotations, csv_all_columns)
     else:
         raise ValueError(f"unknown extension {suffix or '(none)'!r} (use {', '.join(EXTENSIONS)})")
 
 
-def write_csv(out, skeleton: Skeleton, clip: Clip, limits: np.ndarray | None, blend: np.ndarray | None,
-              reference: np.ndarray | None = None) -> None:
-    """One row a frame: frame, blend, root position, then Euler z, y, x per joint."""
+CSV_ROTATIONS = ("euler", "quaternion")
+
+
+def csv_columns(skeleton: Skeleton, clip: Clip, limits: np.ndarray | None = None, blend: np.ndarray | None = None,
+                reference: np.ndarray | None = None, rotations: str = "euler",
+                all_columns: bool = False) -> tuple[list[str], np.ndarray]:
+    """The CSV's header names and values ``(F, C)``: ``frame``, ``time_s``, ``blend``
+    (when given), ``root_x_cm``.., then per joint in the skeleton's order either its
+    Euler angles in its channel order (``LeftArm_rz_deg, LeftArm_ry_deg,
+    LeftArm_rx_deg`` for ZYX: R = Rz Ry Rx, the BVH's numbers) or its quaternion
+    (``LeftArm_qw..qz``, signs continuous). Columns that are zero in every frame
+    (a locked axis, the fixed Bat) are left out unless ``all_columns``."""
+    if rotations not in CSV_ROTATIONS:
+        raise ValueError(f"CSV rotations must be one of {', '.join(CSV_ROTATIONS)}, got {rotations!r}")
     F = clip.num_frames
-    e = bvh.file_euler(skeleton, clip, limits, reference)
-    blend = np.zeros(F) if blend is None else blend
-    head = ["frame", "blend", "root_x", "root_y", "root_z"] + [
-        f"{n}_{ax}" for n in skeleton.names for ax in ("z", "y", "x")]
-    rows = [",".join(head)]
-    for f in range(F):
-        vals = [str(f), f"{blend[f]:.6f}"] + [f"{v:.6f}" for v in clip.root_positions[f]] + [
-            f"{v:.6f}" for v in e[f].reshape(-1)]
-        rows.append(",".join(vals))
-    bvh.atomic_write_text(out, "\n".join(rows) + "\n")
+    names = ["frame", "time_s"] + ([] if blend is None else ["blend"]) + [f"root_{a}_cm" for a in "xyz"]
+    cols = [np.arange(F), np.arange(F) / clip.fps] + ([] if blend is None else [np.asarray(blend, float)])
+    cols += list(np.asarray(clip.root_positions, float).T)
+    if rotations == "euler":
+        e = bvh.file_euler(skeleton, clip, limits, reference)
+        for j, (joint, order) in enumerate(zip(skeleton.names, skeleton.channel_orders)):
+            names += [f"{joint}_r{a.lower()}_deg" for a in order]
+            cols += [e[:, j, k] for k in range(len(order))]
+    else:
+        q = quat.make_continuous(quat.normalize(clip.local_rotations), axis=0)
+        for j, joint in enumerate(skeleton.names):
+            names += [f"{joint}_q{a}" for a in "wxyz"]
+            cols += list(q[:, j].T)
+    data = np.stack(cols, 1)
+    keep = [i for i, n in enumerate(names) if all_columns or i < 2 or np.any(np.round(data[:, i], 6) != 0)]
+    return [names[i] for i in keep], data[:, keep]
+
+
+def write_csv(out, skeleton: Skeleton, clip: Clip, limits: np.ndarray | None, blend: np.ndarray | None,
+              reference: np.ndarray | None = None, rotations: str = "euler", all_columns: bool = False) -> None:
+    """One row a frame, the columns of :func:`csv_columns` (6 decimals), atomically."""
+    names, data = csv_columns(skeleton, clip, limits, blend, reference, rotations, all_columns)
+    buf = io.StringIO()
+    np.savetxt(buf, data, fmt=["%d"] + ["%.6f"] * (len(names) - 1), delimiter=",", header=",".join(names),
+               comments="")
+    bvh.atomic_write_text(out, buf.getvalue().replace("-0.000000", "0.000000"))
 
 
 def ball_track(rig, shot, clip: Clip, hit_point: np.ndarray, ball_start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -155,15 +155,16 @@ def check_out(out: Path) -> None:
         raise UserError(f"--out {out} is a folder")
 
 
-def _write(out: Path, rig, shot, a) -> None:
-    """The adapted take to ``out``; a glTF holds the source take too, each with its ball."""
+def _write(out: Path, rig, shot, a, csv_rotations: str = "euler") -> None:
+    """The adapted take to ``out``; a glTF holds the source take too, each with its ball;
+    a CSV has Euler angles (degrees, BVH's numbers) or quaternions (``csv_rotations``)."""
     clip = Clip(a.root_positions, a.local_rotations, shot.clip.fps)
     takes = None
     if out.suffix.lower() in (".glb", ".gltf"):
         from engine.export import shot_takes
         takes = shot_takes(rig, shot, clip, a.desired_hit_point, choice.BALL_START, shot.hit_point)
     write_take(out, shot.skeleton, clip, name=f"{shot.name}_adapted", limits=rig.limits, blend=a.blend,
-               takes=takes)
+               takes=takes, csv_rotations=csv_rotations)
 
 
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
