@@ -446,6 +446,21 @@ def _fmt(v: float) -> str:
     return "0" if s in ("-0", "") else s
 
 
+END_SITE_SHARE = 0.25    # a leaf joint without an End Site gets one this share of its bone on
+
+
+def end_site(skeleton: Skeleton, j: int) -> np.ndarray:
+    """The End Site offset written under leaf joint ``j``: its own, else one that
+    carries its bone on (importers then make a bone of that length; without one,
+    Blender makes a 1 mm bone and warns). Joints with children get none: an End
+    Site beside a JOINT confuses importers."""
+    if j in skeleton.end_sites:
+        return np.asarray(skeleton.end_sites[j], float)
+    offset = np.asarray(skeleton.offsets[j], float)
+    length = float(np.linalg.norm(offset))
+    return offset * END_SITE_SHARE if length > 1e-9 else np.array([0.0, 1.0, 0.0])
+
+
 def file_euler(skeleton: Skeleton, clip: Clip, limits: np.ndarray | None = None,
                reference: np.ndarray | None = None) -> np.ndarray:
     """The Euler numbers ``(F, J, 3)`` degrees a BVH (or CSV) of ``clip`` holds, in
@@ -462,11 +477,14 @@ def file_euler(skeleton: Skeleton, clip: Clip, limits: np.ndarray | None = None,
 
 
 def format_bvh(skeleton: Skeleton, clip: Clip, euler: np.ndarray | None = None, *,
-               limits: np.ndarray | None = None, reference: np.ndarray | None = None) -> str:
+               limits: np.ndarray | None = None, reference: np.ndarray | None = None,
+               leaf_ends: bool = False) -> str:
     """BVH text for a skeleton and clip (rotation channels in each joint's order).
 
     ``euler (F, J, 3)`` degrees are written as given; by default they are
-    :func:`file_euler` (continuous, ``limits`` and ``reference`` as there)."""
+    :func:`file_euler` (continuous, ``limits`` and ``reference`` as there).
+    End Sites: never beside a JOINT; with ``leaf_ends`` every leaf joint has one
+    (:func:`end_site`), as importers want."""
     if euler is None:
         euler = file_euler(skeleton, clip, limits, reference)
     J = skeleton.num_joints
@@ -481,13 +499,13 @@ def format_bvh(skeleton: Skeleton, clip: Clip, euler: np.ndarray | None = None, 
         out.append(f"{ind}\tOFFSET " + " ".join(_fmt(v) for v in skeleton.offsets[j]))
         chans = (list(_POS) if skeleton.position_channels[j] else []) + \
             [f"{a}rotation" for a in skeleton.channel_orders[j]]
-        out.append(f"{ind}\tCHANNELS {len(chans)} " + " ".join(chans))
+        out.append(f"{ind}\tCHANNELS {len(chans)}" + "".join(f" {c}" for c in chans))
         for c in children[j]:
             emit(c, depth + 1)
-        if j in skeleton.end_sites:
+        if not children[j] and (leaf_ends or j in skeleton.end_sites):
             out.append(f"{ind}\tEnd Site")
             out.append(f"{ind}\t{{")
-            out.append(f"{ind}\t\tOFFSET " + " ".join(_fmt(v) for v in skeleton.end_sites[j]))
+            out.append(f"{ind}\t\tOFFSET " + " ".join(_fmt(v) for v in end_site(skeleton, j)))
             out.append(f"{ind}\t}}")
         out.append(f"{ind}}}")
 
@@ -518,8 +536,9 @@ def format_bvh(skeleton: Skeleton, clip: Clip, euler: np.ndarray | None = None, 
 def write(path: str | os.PathLike, skeleton: Skeleton, clip: Clip, *, limits: np.ndarray | None = None,
           reference: np.ndarray | None = None) -> None:
     """Write atomically: a temporary file in the same folder, then a rename.
-    Euler angles as :func:`file_euler` (``limits``, ``reference`` as there)."""
-    text = format_bvh(skeleton, clip, limits=limits, reference=reference)
+    Euler angles as :func:`file_euler` (``limits``, ``reference`` as there); an
+    End Site on every leaf joint and none beside a JOINT (clean in Blender)."""
+    text = format_bvh(skeleton, clip, limits=limits, reference=reference, leaf_ends=True)
     atomic_write_text(path, text)
 
 
