@@ -9,7 +9,7 @@ import typer
 
 from app.cli import adapt as cmd_adapt, analyse as cmd_analyse, bench as cmd_bench, render as cmd_render
 from app.cli import shots as cmd_shots, synth as cmd_synth, view as cmd_view, library as cmd_library
-from app.cli import reconstruct as cmd_reconstruct
+from app.cli import reconstruct as cmd_reconstruct, terrain as cmd_terrain
 from app.errors import one_line
 
 cli = typer.Typer(add_completion=False, no_args_is_help=False,
@@ -18,6 +18,7 @@ cli = typer.Typer(add_completion=False, no_args_is_help=False,
 for _module in (cmd_view, cmd_shots, cmd_render, cmd_adapt, cmd_bench, cmd_analyse, cmd_synth, cmd_library):
     _module.register(cli)
 cmd_reconstruct.register(cli)          # learnt IK (issue 17)
+cmd_terrain.register(cli)
 NO_ENGINE_COMMANDS = ("shots",)     # commands that run no compiled engine code
 
 
