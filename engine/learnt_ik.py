@@ -361,6 +361,22 @@ def solve_limb(model: LimbModel, target: np.ndarray, previous: np.ndarray | None
     return lookup(model, np.asarray(target, float).reshape(1, -1), previous)[0][0]
 
 
+def lookup_world(model: LimbModel, parent_rotations: np.ndarray, parent_positions: np.ndarray,
+                 targets: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    """Learnt IK for frames in world space: the limb's local rotations ``(F, n, 4)`` (in
+    ``model.limb.joints`` order) putting its effectors on world ``targets (F, N, 3)`` cm,
+    given the global rotation ``(F, 4)`` and position ``(F, 3)`` of the limb root's
+    parent joint each frame (see :func:`lookup` for ``previous``). For a solver's
+    start pose (learnt+ccd), pass the result's chain joints to ``engine.ccd.solve``."""
+    limb = model.limb
+    q = np.asarray(parent_rotations, float)
+    root_offset = limb.offsets[limb.local_parents < 0][0]
+    root = np.asarray(parent_positions, float) + quat.rotate(q, np.broadcast_to(root_offset, q.shape[:-1] + (3,)))
+    rel = np.asarray(targets, float).reshape(len(q), -1, 3) - root[:, None]
+    x = quat.rotate(np.broadcast_to(quat.conjugate(q)[:, None], rel.shape[:-1] + (4,)), rel)
+    return lookup(model, x.reshape(len(q), -1), previous)[0]
+
+
 def train_chains(rig, clips, settings: LearntSettings | None = None, names=None, effectors=None) -> dict:
     """One model per rig chain (default: left_arm, right_arm, left_leg, right_leg),
     trained on the local rotations ``(F, J, 4)`` of every clip in ``clips`` (rig

@@ -140,3 +140,23 @@ def test_bad_input_is_refused():
         L.train(limb, mu, L.LearntSettings(tolerance=-1.0))
     with pytest.raises(ValueError):
         L.train(limb, mu[:, :2])
+
+
+def test_world_lookup_then_ccd_reaches_a_held_out_pose(rig):
+    """learnt+ccd as adapt would wire it: a left-arm model trained without a shot gives
+    the start pose for that shot's bat positions (reachable: they are its own), CCD
+    finishes to 0.1 cm; lookup_world agrees with constraints + lookup."""
+    from engine import ccd
+    from engine.library import load_library
+    shots = load_library(rig=rig)
+    held = shots[5]
+    m = L.train_chains(rig, [s.clip.local_rotations for s in shots if s is not held], names=("left_arm",))["left_arm"]
+    g_rot, g_pos = held.fk
+    ch = ccd.chain_arrays(rig, "left_arm")
+    bat = g_pos[:, ch.effector]
+    start = L.lookup_world(m, g_rot[:, ch.parent], g_pos[:, ch.parent], bat[:, None])
+    assert np.allclose(start, L.lookup(m, L.constraints(m.limb, g_rot, g_pos))[0], atol=1e-9)
+    n = len(ch.joints)
+    assert list(m.limb.joints[:n]) == list(ch.joints)
+    _, err, _ = ccd.solve(ch, g_rot[:, ch.parent], g_pos[:, ch.parent], start[:, :n], bat)
+    assert err.max() < 0.1
