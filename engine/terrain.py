@@ -281,3 +281,19 @@ def clearances(rig, result: TerrainResult, terrain: Terrain) -> np.ndarray:
         p = foot_points(rig, g_pos, side, result.ankle_rest[k])
         out.append((p[..., 1] - terrain.height(p[..., 0], p[..., 2])).min(axis=1))
     return np.stack(out)
+
+
+def terrain_mesh(terrain: Terrain, x_range, z_range, cell: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
+    """A triangle mesh of the terrain over ``x_range``, ``z_range`` (cm) for drawing:
+    vertices ``(N, 3)`` on H every ``cell`` cm and triangles ``(M, 3)`` (counter-clockwise
+    seen from above, so their normals point up)."""
+    if not (cell > 0 and x_range[1] > x_range[0] and z_range[1] > z_range[0]):
+        raise ValueError("terrain mesh: needs cell > 0 and non-empty ranges")
+    xs = np.linspace(x_range[0], x_range[1], max(2, int(math.ceil((x_range[1] - x_range[0]) / cell)) + 1))
+    zs = np.linspace(z_range[0], z_range[1], max(2, int(math.ceil((z_range[1] - z_range[0]) / cell)) + 1))
+    X, Z = np.meshgrid(xs, zs)                      # (nz, nx)
+    verts = np.stack([X, terrain.height(X, Z), Z], axis=-1).reshape(-1, 3)
+    nx = len(xs)
+    i = (np.arange(len(zs) - 1)[:, None] * nx + np.arange(nx - 1)[None, :]).reshape(-1)
+    tris = np.concatenate([np.stack([i, i + nx, i + 1], -1), np.stack([i + 1, i + nx, i + nx + 1], -1)])
+    return verts, tris

@@ -143,3 +143,11 @@ def test_pickled_height_map_is_refused(tmp_path):
 def test_missing_walk_one_line(tmp_path):
     r = run_cli("--bvh", str(tmp_path / "none.bvh"), "--terrain", "sine:amp=1,wavelength=100")
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_terrain_mesh_lies_on_h_and_faces_up():
+    ground = T.parse_spec("sine:amp=10,wavelength=200")
+    verts, tris = T.terrain_mesh(ground, (-100, 100), (0, 300), cell=25)
+    assert np.allclose(verts[:, 1], ground.height(verts[:, 0], verts[:, 2]))
+    a, b, c = (verts[tris[:, k]] for k in range(3))
+    assert np.all(np.cross(b - a, c - a)[:, 1] > 0) and tris.max() == len(verts) - 1
