@@ -101,6 +101,7 @@ def build(name: str, rig=None, noise: bool = True):
     # shared first and last frames
     near_hit = np.exp(-0.5 * (times / 0.06) ** 2)
     T["roll_weight"] = 0.05 + 200.0 * near_hit + 200.0 * (1.0 - envelope(len(times), 6))
+    T["roll_weight"][n_pre] = np.inf          # the face meets the ball as keyed
     root, local, info = solver.solve(T)
     clip = Clip(root, local, FPS)
     return rig.skeleton, clip, n_pre, description, {"tracks": tr, **info}

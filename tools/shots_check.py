@@ -112,3 +112,85 @@ def centre_of_mass(rig, global_positions: np.ndarray) -> np.ndarray:
                  (0.0145, (P(s + "Foot") + P(s + "ToeBase")) / 2)]
     m = sum(w for w, _ in segs)
     return sum(w * p for w, p in segs) / m
+
+
+# ------------------------------------------------------------- the hit (issue 14 item 1)
+# Where each bundled shot must send the ball (azimuth deg, DESIGN.md's convention:
+# 0 straight back past the bowler, + off side) and how fast the bat may be.
+REGIONS = {
+    "forward_defence": (-35.0, 35.0), "back_foot_defence": (-35.0, 35.0),
+    "straight_drive": (-15.0, 15.0), "cover_drive": (35.0, 85.0), "on_drive": (-50.0, -8.0),
+    "square_cut": (65.0, 115.0), "pull": (-120.0, -45.0), "leg_glance": (-170.0, -95.0),
+    "sweep": (-160.0, -60.0),
+}
+DEFENCES = ("forward_defence", "back_foot_defence")
+DRIVES = ("straight_drive", "cover_drive", "on_drive")
+DEFENCE_MAX_MPS = 3.5        # Stretch et al. 1998: forward defence peak 3.5 m/s
+DRIVE_PEAK_MPS = 11.8        # ... drive peak 11.8 m/s, 0.02 s before impact
+FEET_CM = 200.0              # a defended ball first lands within this of the hit point
+
+
+def bat_speed_mps(rig, global_positions: np.ndarray, fps: float) -> np.ndarray:
+    """Horizontal speed (m/s) of the Bat joint per frame ``(F,)``, central differences
+    (the speed Stretch et al. measured)."""
+    v = np.gradient(global_positions[:, rig.bat_joint], axis=0) * fps
+    return np.hypot(v[:, 0], v[:, 2]) / 100.0
+
+
+def first_bounce_cm(path: np.ndarray, hit_point: np.ndarray) -> float:
+    """Ground distance (cm) from the hit point to where a flight path ``(K, 3)`` (engine.ballistics.fly)
+    first lands: its first sample whose height then rises or stays (a bounce or the roll)."""
+    y = path[:, 1]
+    up = np.nonzero(y[1:] >= y[:-1])[0]
+    p = path[up[0]] if len(up) else path[-1]
+    return float(np.hypot(*(p - hit_point)[[0, 2]]))
+
+
+def hit_measures(rig, shot) -> dict:
+    """What a source shot does at its own hit point, from engine.ballistics.shot_flight:
+    contact, face_to_ball, the ball's azimuth/elevation (deg), the bat's horizontal speed at
+    impact and its peak (m/s), the peak's offset from the hit (frames, + after), and how far
+    from the hit point the ball first lands (cm)."""
+    from engine.ballistics import shot_flight
+    from engine.choice import BALL_START
+    g_rot, g_pos = shot.fk
+    fl, _ = shot_flight(rig, shot, g_rot, g_pos, BALL_START, shot.hit_point)
+    v = bat_speed_mps(rig, g_pos, shot.clip.fps)
+    h = shot.hit_frame
+    return {"contact": fl.contact, "face_to_ball": fl.face_to_ball, "azimuth_deg": fl.azimuth_deg,
+            "elevation_deg": fl.elevation_deg, "speed_mps": float(v[h]), "peak_mps": float(v.max()),
+            "peak_offset": int(np.argmax(v)) - h, "first_bounce_cm": first_bounce_cm(fl.path, shot.hit_point)}
+
+
+def hit_problems(name: str, m: dict) -> list[str]:
+    """What keeps a shot's hit ``m`` (from :func:`hit_measures`) from issue 14's targets."""
+    out = []
+    if m["contact"] != "face":
+        out.append(f"meets the ball with the {m['contact']} (face_to_ball {m['face_to_ball']:.2f})")
+    lo, hi = REGIONS[name]
+    if not lo <= m["azimuth_deg"] <= hi:
+        out.append(f"azimuth {m['azimuth_deg']:.1f} outside {lo:.0f}..{hi:.0f}")
+    if name in DEFENCES:
+        if m["peak_mps"] > DEFENCE_MAX_MPS:
+            out.append(f"bat peaks at {m['peak_mps']:.1f} m/s (> {DEFENCE_MAX_MPS})")
+        if m["first_bounce_cm"] > FEET_CM:
+            out.append(f"ball first lands {m['first_bounce_cm']:.0f} cm away (> {FEET_CM:.0f})")
+    else:
+        if abs(m["peak_offset"]) > 1:
+            out.append(f"bat speed peaks {m['peak_offset']:+d} frames from the hit")
+        if name in DRIVES and m["speed_mps"] < 0.8 * DRIVE_PEAK_MPS:
+            out.append(f"bat at {m['speed_mps']:.1f} m/s at impact (drive ~{DRIVE_PEAK_MPS})")
+    return out
+
+
+def hit_table(rig, shots) -> str:
+    """One line per shot: face, direction, speed, peak offset, landing, problems."""
+    rows = [f"{'shot':18s} {'contact':7s} {'cos':>5s} {'az':>7s} {'el':>6s} {'v_hit':>5s} "
+            f"{'peak':>5s} {'dpk':>4s} {'land':>5s}  problems"]
+    for s in shots:
+        m = hit_measures(rig, s)
+        rows.append(f"{s.name:18s} {m['contact']:7s} {m['face_to_ball']:5.2f} {m['azimuth_deg']:7.1f} "
+                    f"{m['elevation_deg']:6.1f} {m['speed_mps']:5.1f} {m['peak_mps']:5.1f} "
+                    f"{m['peak_offset']:+4d} {m['first_bounce_cm']:5.0f}  "
+                    + "; ".join(hit_problems(s.name, m)))
+    return "\n".join(rows)

@@ -32,6 +32,7 @@ import numpy as np
 from .shots_ik import perp, unit
 
 V = lambda *a: np.array(a, float)
+FPS_KEYS = 30.0                   # the frame rate the keys near impact are placed on
 
 
 def bat_d(*a):
@@ -132,6 +133,36 @@ def bat(grip=None, d=None, n=None, hit=None, x=None):
     else:
         k["grip"] = V(*grip)
     return k
+
+
+def turn(axis: np.ndarray, deg: float, v: np.ndarray) -> np.ndarray:
+    """``v`` turned ``deg`` degrees about the unit ``axis`` (Rodrigues)."""
+    a = np.radians(deg)
+    return v * np.cos(a) + np.cross(axis, v) * np.sin(a) + axis * (axis @ v) * (1 - np.cos(a))
+
+
+def swing(hit, d, n, v, peak, pivot, frames=(-3, 3), widths=(2.6, 2.0)) -> list:
+    """Bat keys on every frame of ``frames`` around impact (t = 0): arms and bat turn as
+    one unit (Stuelcken et al. 2005) about an axis through ``pivot`` (near the shoulders),
+    so at the hit the Bat joint is at ``hit`` with axis ``d`` and face normal ``n``,
+    moving along ``v`` (made square to the radius) at ``peak`` m/s, the fastest of the
+    stroke (Stretch et al. 1998: peak bat speed just before impact). The speed falls
+    off as a Gaussian of ``widths`` frames before and after the hit."""
+    hit, d, n, pivot = V(*hit), bat_d(*d), unit(V(*n)), V(*pivot)
+    r = hit - pivot
+    radius = float(np.linalg.norm(r))
+    v = unit(perp(V(*v), r / radius))
+    w = unit(np.cross(r, v))                     # w x r = radius v
+    fine = np.linspace(frames[0], frames[1], 40 * (frames[1] - frames[0]) + 1)
+    width = np.where(fine < 0, widths[0], widths[1])
+    rate = peak * 100.0 / FPS_KEYS / radius * np.exp(-0.5 * (fine / width) ** 2)   # rad per frame
+    angle = np.degrees(np.concatenate([[0.0], np.cumsum((rate[1:] + rate[:-1]) / 2 * np.diff(fine))]))
+    angle -= np.interp(0.0, fine, angle)
+    keys = []
+    for k in range(frames[0], frames[1] + 1):
+        a = float(np.interp(k, fine, angle))
+        keys.append((k / FPS_KEYS, bat(hit=pivot + turn(w, a, r), d=turn(w, a, d), n=turn(w, a, n))))
+    return keys
 
 
 def body(hips=None, hips_ypr=None, chest=None):
@@ -310,16 +341,18 @@ def back_foot_defence():
 
 
 def square_cut():
-    hit = V(-68, 88, 118)
+    hit = V(-70, 85, 85)
+    # played late, beside the back foot: the bat comes down from a high backlift
+    # across the line, toe toward gully, face open toward point
     bats = [(-0.80, dict(STANCE_BAT)),
             (-0.58, bat(grip=(22, 100, 96), d=(-0.3, -0.2, -0.9))),
-            (-0.36, bat(grip=(27, 124, 82), d=(-0.3, 0.6, -0.75))),           # high backlift
-            (-0.16, bat(grip=(2, 122, 104), d=(-0.8, 0.45, -0.4))),
-            (-0.06, bat(hit=hit + V(12, 34, -6), d=(-0.85, 0.1, 0.5), n=(-0.4, -0.6, -0.6))),
-            (0.0, bat(hit=hit, d=(-0.82, -0.18, 0.55), n=(-0.55, -0.1, -0.83))),
-            (0.10, bat(hit=hit + V(20, -26, 18), d=(-0.55, -0.55, 0.6), n=(-0.5, 0.1, -0.85))),
-            (0.30, bat(grip=(-8, 92, 128), d=(-0.2, -0.4, 0.9))),
-            (0.55, bat(grip=(2, 118, 135), d=(0.2, 0.5, 0.8)))]
+            (-0.36, bat(grip=(24, 128, 84), d=(-0.2, 0.65, -0.75))),           # high backlift
+            (-0.20, bat(grip=(-14, 136, 80), d=(-0.25, 0.5, -0.85)))]
+    bats += swing(hit, d=(-0.7, -0.2, -0.7), n=(-0.7, -0.1, 0.7), v=(0, -0.7, 0.7), peak=10.0,
+                  pivot=(15, 135, 110))
+    bats += [(0.25, bat(grip=(8, 92, 150), d=(-0.55, -0.8, 0.2))),
+             (0.45, bat(grip=(10, 100, 140), d=(-0.2, -0.9, 0.3))),
+             (0.65, bat(grip=(4, 110, 130), d=(0.1, -0.6, -0.8)))]
     looks = [(-0.55, BOWLER), (-0.30, (-20, 140, 600)), (0.0, hit + V(0, 0, 10)), (0.30, (-300, 60, 60)),
              (0.95, BOWLER)]
     keys = back_foot(t_frames(31), 1.3, (4, 1, 88), -100.0, (12, 1, 130), -88.0, bats,

@@ -201,8 +201,13 @@ class PoseSolver:
                 ang = self._arm_angles(g_pos[:, self.ix[pre + "Arm"]], w, hr,
                                        g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
                 costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None]).min(1)
-        costs += T["roll_weight"][:, None] * (self.ROLLS / 20.0) ** 2
-        costs[[0, -1]] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
+        w = T["roll_weight"]
+        costs += np.where(np.isfinite(w), w, 0.0)[:, None] * (self.ROLLS / 20.0) ** 2
+        # the shared end frames and any frame of infinite weight (the hit: the face
+        # is keyed there) keep the keyed face exactly
+        fixed = ~np.isfinite(w)
+        fixed[[0, -1]] = True
+        costs[fixed] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
         return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0)]
 
     def _leg(self, L, g_rot, g_pos, T, side, pre):
