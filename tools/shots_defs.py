@@ -235,10 +235,12 @@ def forward_defence():
     return compose(t0, t1, bats, bodies, looks, [L, R]), "Forward defence: front-foot stride to the pitch, bat angled down beside the pad."
 
 
+DRIVE_PEAK = 12.4    # m/s along the arc: ~11.8 horizontally at the hit (Stretch et al. 1998)
 RECOVER_BODY = body(hips=(27, 81, 130), hips_ypr=(-87, 11, 0), chest=(-86, 18, 12))
 
 
-def front_foot_drive(name, t0, t1, toe, yaw, hit, d_hit, n_hit, follow, hit_body, finish_body, desc):
+def front_foot_drive(name, t0, t1, toe, yaw, hit, d_hit, n_hit, v_hit, pivot, follow, hit_body, finish_body,
+                     desc, tilts=()):
     """Drives share the measured drive timing (Stretch et al. 1998, D): stride
     starts 0.58 s and the downswing 0.36 s before impact, the front foot lands
     0.06 s before it, the back foot drags 0.10 m after."""
@@ -253,13 +255,12 @@ def front_foot_drive(name, t0, t1, toe, yaw, hit, d_hit, n_hit, follow, hit_body
             (-0.58, bat(grip=(18, 95, 108), d=(-0.15, -0.6, -0.8))),
             # top of the backlift at the downswing start, toe 0.74 m up (D)
             (-0.36, bat(grip=(27, 106, 86), d=(-0.35, -0.44, -0.83))),
-            (-0.20, bat(grip=(14, 104, 140), d=(-0.2, -0.7, -0.7))),
-            (-0.08, bat(hit=hit + V(0, 25, -60), d=(-0.05, -0.85, -0.52), n=(0, -0.52, 0.85))),
-            (0.0, bat(hit=hit, d=d_hit, n=n_hit))] + follow
+            ] + swing(hit, d_hit, n_hit, v_hit, DRIVE_PEAK, pivot, frames=(-6, 3), widths=(3.4, 2.0)) + follow
     bodies = [(-0.65, body(hips=(29, 83, 114))),
               (-0.36, body(hips=(28, 82, 126), hips_ypr=(-90, 12, 0), chest=(-95, 16, 22))),
               (-0.06, body(hips=(25, 76, 152))),
               (0.0, hit_body), (0.40, finish_body), (0.85, RECOVER_BODY)]
+    bodies += [(t, {"head_tilt": a}) for t, a in tilts]      # keeps the neck inside its limits
     looks = [(-0.55, BOWLER), (-0.30, (0, 80, 700)), (0.0, hit + V(0, 0, 15)), (0.30, (hit + V(0, 30, 400))),
              (0.95, BOWLER)]
     return compose(t0, t1, bats, bodies, looks, [L, R]), desc
@@ -268,9 +269,8 @@ def front_foot_drive(name, t0, t1, toe, yaw, hit, d_hit, n_hit, follow, hit_body
 def straight_drive():
     return front_foot_drive(
         "straight_drive", t_frames(31), 1.3, (14, 1, 205), -62.0,
-        hit=(-2, 30, 212), d_hit=(0, -1, -0.08), n_hit=(0, 0, 1),
-        follow=[(0.07, bat(hit=(-3, 45, 245), d=(0, -0.7, 0.7), n=(0, 0.7, 0.7))),
-                (0.20, bat(grip=(-5, 125, 205), d=(0.1, 0.3, 0.95))),
+        hit=(-2, 30, 212), d_hit=(0, -1, -0.08), n_hit=(0, 0, 1), v_hit=(0, 0.2, 1), pivot=(15, 125, 180),
+        follow=[(0.20, bat(grip=(-5, 125, 205), d=(0.1, 0.3, 0.95))),
                 (0.42, bat(grip=(5, 150, 175), d=(0.3, 0.8, -0.5))),
                 (0.58, bat(grip=(10, 128, 168), d=(0.6, -0.2, -0.75))),
                 (0.72, bat(grip=(0, 104, 152), d=(0.05, -0.5, -0.85)))],
@@ -282,23 +282,24 @@ def straight_drive():
 def cover_drive():
     return front_foot_drive(
         "cover_drive", t_frames(30), 1.3, (0, 1, 198), -45.0,
-        hit=(-42, 30, 205), d_hit=(-0.15, -1, -0.1), n_hit=(-0.55, 0, 0.85),
-        follow=[(0.07, bat(hit=(-60, 48, 230), d=(-0.4, -0.6, 0.6), n=(-0.5, 0.6, 0.5))),
-                (0.20, bat(grip=(-30, 120, 195), d=(-0.3, 0.4, 0.85))),
+        hit=(-42, 30, 205), d_hit=(-0.15, -1, -0.1), n_hit=(-0.55, 0, 0.85), v_hit=(-0.45, 0.2, 0.9),
+        pivot=(5, 125, 172),
+        follow=[(0.20, bat(grip=(-30, 120, 195), d=(-0.3, 0.4, 0.85))),
                 (0.42, bat(grip=(-10, 148, 170), d=(0.2, 0.8, -0.5))),
                 (0.58, bat(grip=(10, 128, 168), d=(0.6, -0.2, -0.75))),
                 (0.72, bat(grip=(-4, 104, 152), d=(0.05, -0.5, -0.85)))],
         hit_body=body(hips=(18, 74, 156), hips_ypr=(-72, 18, -4), chest=(-62, 36, -6)),
         finish_body=body(hips=(18, 77, 160), hips_ypr=(-66, 12, -3), chest=(-50, 20, -8)),
+        tilts=[(-0.42, 0.0), (-0.23, 12.0), (-0.05, 0.0)],
         desc="Cover drive: front foot to the off side, bat through the line of a wide half-volley toward cover.")
 
 
 def on_drive():
     return front_foot_drive(
         "on_drive", t_frames(29), 1.27, (24, 1, 200), -80.0,
-        hit=(16, 30, 207), d_hit=(0.05, -1, -0.1), n_hit=(0.45, 0, 0.9),
-        follow=[(0.07, bat(hit=(22, 46, 240), d=(0.3, -0.6, 0.7), n=(0.3, 0.7, 0.6))),
-                (0.20, bat(grip=(18, 122, 200), d=(0.3, 0.3, 0.9))),
+        hit=(16, 30, 207), d_hit=(0.05, -1, -0.1), n_hit=(0.35, 0, 0.94), v_hit=(0.3, 0.2, 0.95),
+        pivot=(25, 125, 175),
+        follow=[(0.20, bat(grip=(18, 122, 200), d=(0.3, 0.3, 0.9))),
                 (0.42, bat(grip=(20, 148, 172), d=(0.5, 0.7, -0.5))),
                 (0.58, bat(grip=(10, 128, 168), d=(0.6, -0.2, -0.75))),
                 (0.72, bat(grip=(4, 104, 152), d=(0.05, -0.5, -0.85)))],
@@ -348,7 +349,7 @@ def square_cut():
             (-0.58, bat(grip=(22, 100, 96), d=(-0.3, -0.2, -0.9))),
             (-0.36, bat(grip=(24, 128, 84), d=(-0.2, 0.65, -0.75))),           # high backlift
             (-0.20, bat(grip=(-14, 136, 80), d=(-0.25, 0.5, -0.85)))]
-    bats += swing(hit, d=(-0.5, -0.55, 0.67), n=(0.78, 0.1, 0.62), v=(0, -0.7, 0.7), peak=10.0,
+    bats += swing(hit, d=(-0.7, -0.2, -0.7), n=(-0.7, -0.1, 0.7), v=(0, -0.7, 0.7), peak=10.0,
                   pivot=(15, 135, 110))
     bats += [(0.25, bat(grip=(8, 92, 150), d=(-0.55, -0.8, 0.2))),
              (0.45, bat(grip=(10, 100, 140), d=(-0.2, -0.9, 0.3))),
@@ -369,7 +370,7 @@ def pull():
             (-0.58, bat(grip=(20, 110, 106), d=(-0.3, 0.1, -0.95))),
             (-0.36, bat(grip=(28, 128, 80), d=(-0.45, 0.6, -0.65))),          # high backlift
             (-0.20, bat(grip=(31, 136, 84), d=(-0.65, 0.4, -0.65)))]
-    bats += swing(hit, d=(-0.5, -0.55, 0.67), n=(0.78, 0.1, 0.62), v=(0.55, 0, 0.85), peak=10.0,
+    bats += swing(hit, d=(-0.7, 0, 0.7), n=(0.69, -0.2, 0.69), v=(0.55, 0, 0.85), peak=10.0,
                   pivot=(20, 140, 110))
     bats += [(0.27, bat(grip=(30, 120, 120), d=(0.5, 0.25, 0.85))),
              (0.50, bat(grip=(38, 130, 100), d=(0.5, 0.5, -0.7)))]
@@ -388,7 +389,7 @@ def leg_glance():
             (-0.36, bat(grip=(26, 104, 88), d=(-0.3, -0.45, -0.85))),
             (-0.16, bat(grip=(14, 102, 122), d=(-0.1, -0.85, -0.5))),
             (-0.06, bat(hit=hit + V(-2, 6, -12), d=(0, -1, -0.25), n=(0.3, 0, 1))),
-            (0.0, bat(hit=hit, d=(0.05, -1, -0.25), n=(0.6, 0, 0.8))),
+            (0.0, bat(hit=hit, d=(0.05, -1, -0.25), n=(0.72, 0, 0.69))),
             (0.12, bat(hit=hit + V(4, -1, -3), d=(0.2, -1, -0.3), n=(0.85, 0, 0.55))),
             (0.40, bat(grip=(14, 102, 122), d=(0.1, -1, -0.3))),
             (0.72, bat(grip=(6, 100, 122), d=(-0.1, -1, -0.2)))]
