@@ -212,3 +212,61 @@ def test_script_reproduces_the_library(shots, rig):
     assert hit == s.hit_frame
     assert np.allclose(clip.root_positions, s.clip.root_positions, atol=1e-5)
     assert quat.angle_between(clip.local_rotations, s.clip.local_rotations).max() < 1e-3
+
+
+# ------------------------------------------------------------ the hit (issue 14 item 1)
+
+@pytest.fixture(scope="module")
+def hits(shots, rig):
+    from tools.shots_check import hit_measures
+    return {name: hit_measures(rig, s) for name, s in shots.items()}
+
+
+def test_every_shot_meets_the_ball_with_the_face_and_sends_it_to_its_region(hits):
+    from tools.shots_check import REGIONS
+    for name, m in hits.items():
+        assert m["contact"] == "face" and m["face_to_ball"] >= 0.5, (name, m["face_to_ball"])
+        lo, hi = REGIONS[name]
+        assert lo <= m["azimuth_deg"] <= hi, (name, m["azimuth_deg"])
+
+
+def test_the_face_normal_agrees_with_an_independent_reading(shots, rig):
+    """The face at each hit frame from the BVH's own LeftHand rotation (the Bat joint is a
+    fixed child of it): the cosine with the direction toward the ball start is positive."""
+    from engine.choice import BALL_START
+    lh = rig.skeleton.index("LeftHand")
+    for s in shots.values():
+        g_rot, g_pos = s.fk
+        n = quat.rotate(g_rot[s.hit_frame, lh], np.array(rig.bat["face_normal"], float))
+        toward = BALL_START - g_pos[s.hit_frame, rig.bat_joint]
+        assert n @ toward / np.linalg.norm(toward) > 0.5, s.name
+
+
+def test_attacking_shots_meet_the_ball_at_the_fastest_part_of_the_swing(hits):
+    """Stretch et al. 1998: a drive's horizontal bat speed peaks at 11.8 m/s 0.02 s before impact."""
+    from tools.shots_check import DEFENCES, DRIVES, GLANCES, DRIVE_PEAK_MPS
+    for name, m in hits.items():
+        if name in DEFENCES + GLANCES:
+            continue
+        assert abs(m["peak_offset"]) <= 1, (name, m["peak_offset"])
+        assert m["speed_mps"] >= 6.0, (name, m["speed_mps"])
+    for name in DRIVES:
+        assert 0.8 * DRIVE_PEAK_MPS <= hits[name]["speed_mps"] <= 1.15 * DRIVE_PEAK_MPS, name
+        assert hits[name]["peak_mps"] <= 1.15 * DRIVE_PEAK_MPS, name
+
+
+def test_defences_are_slow_at_impact_and_drop_the_ball_at_the_feet(hits):
+    from tools.shots_check import DEFENCES, DEFENCE_MAX_MPS, FEET_CM
+    for name in DEFENCES:
+        assert hits[name]["speed_mps"] <= DEFENCE_MAX_MPS, name
+        assert hits[name]["first_bounce_cm"] <= FEET_CM, (name, hits[name]["first_bounce_cm"])
+        assert hits[name]["elevation_deg"] < 0, name
+
+
+def test_the_authoring_check_finds_a_back_of_the_bat_hit():
+    from tools.shots_check import hit_problems
+    m = {"contact": "back", "face_to_ball": -0.8, "azimuth_deg": 170.0, "elevation_deg": 0.0,
+         "speed_mps": 4.0, "peak_mps": 9.0, "peak_offset": 11, "first_bounce_cm": 900.0}
+    found = " ".join(hit_problems("square_cut", m))
+    assert "back" in found and "azimuth" in found and "peaks +11" in found
+    assert hit_problems("forward_defence", dict(m, contact="face", face_to_ball=0.9, azimuth_deg=0.0)) != []
