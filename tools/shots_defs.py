@@ -363,14 +363,14 @@ def square_cut():
 
 
 def pull():
-    hit = V(-28, 125, 140)
+    hit = V(-28, 125, 152)
     # body square to the bowler, the bat horizontal at chest height swung round
     # the body, face closing toward mid-wicket
     bats = [(-0.80, dict(STANCE_BAT)),
             (-0.58, bat(grip=(20, 110, 106), d=(-0.3, 0.1, -0.95))),
             (-0.36, bat(grip=(28, 128, 80), d=(-0.45, 0.6, -0.65))),          # high backlift
             (-0.20, bat(grip=(31, 136, 84), d=(-0.65, 0.4, -0.65)))]
-    bats += swing(hit, d=(-0.7, 0, 0.7), n=(0.69, -0.2, 0.69), v=(0.55, 0, 0.85), peak=10.0,
+    bats += swing(hit, d=(-0.78, 0.03, 0.62), n=(0.6, -0.2, 0.77), v=(0.55, 0, 0.85), peak=10.0,
                   pivot=(20, 140, 110))
     bats += [(0.27, bat(grip=(30, 120, 120), d=(0.5, 0.25, 0.85))),
              (0.50, bat(grip=(38, 130, 100), d=(0.5, 0.5, -0.7)))]

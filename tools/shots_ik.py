@@ -202,12 +202,12 @@ class PoseSolver:
                                        g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
                 costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None]).min(1)
         w = T["roll_weight"]
-        costs += np.where(np.isfinite(w), w, 0.0)[:, None] * (self.ROLLS / 20.0) ** 2
-        # the shared end frames and any frame of infinite weight (the hit: the face
-        # is keyed there) keep the keyed face exactly
-        fixed = ~np.isfinite(w)
-        fixed[[0, -1]] = True
-        costs[fixed] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
+        near = ~np.isfinite(w)
+        costs += np.where(near, 200.0, w)[:, None] * (self.ROLLS / 20.0) ** 2
+        # a frame of infinite weight (the hit: the face is keyed there) turns the face
+        # by one step at most; the shared end frames keep it exactly
+        costs[near] = np.where(np.abs(self.ROLLS) <= 7.5, costs[near], np.inf)
+        costs[[0, -1]] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
         return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0)]
 
     def _leg(self, L, g_rot, g_pos, T, side, pre):
