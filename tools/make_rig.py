@@ -4,6 +4,22 @@ and bat/ball dimensions. Deterministic; run `python -m tools.make_rig`.
 Offsets are in cm, in a T-pose facing +Z with the left side toward +X (joint
 frames world-aligned, as in BVH). Limits are Euler degrees for
 R = Rz(z) Ry(y) Rx(x); in the arms x is the twist about the bone.
+
+Anatomical ranges (DESIGN.md: a shot that needs more is re-keyed, the limit is not widened):
+- ForeArmRoll x, forearm pronation/supination from the mid-position (the T-pose's
+  palm-down, thumb-forward hand is the mid-position: the arm hanging with the palm
+  to the thigh, abducted 90 deg): pronation 85, supination 90 (Kapandji, The
+  Physiology of the Joints vol. 1; AAOS, Joint Motion: Method of Measuring and
+  Recording, 1965, gives 80 / 80). For the left arm +x turns the palm backward and
+  the thumb down: pronation; so [-90, 85], mirrored on the right.
+- Hand z, wrist flexion/extension: flexion 80, extension 70 (AAOS 1965). For the
+  left hand +z lifts the fingers (extension): [-80, 70], mirrored on the right.
+Not yet anatomical (issue 14, see the shots' report): Hand y, the wrist's
+radial/ulnar deviation (AAOS 20 / 30), holds [-75, 55] because the rig holds the
+handle square across the palm where a real top hand holds it diagonally (the
+bat's hang lives in the wrist); Arm z keeps +-170 because the left upper arm
+crossing the chest in the shared stance lies near the ZYX parameterisation's
+wrap (z about -155..-170 with y 0..30).
 """
 import json
 from pathlib import Path
@@ -41,8 +57,8 @@ def side(prefix, s):
         joint(f"{L}Arm", f"{L}Shoulder", [15.0 * s, 0.0, 0.0], "zyx", lim([-170, 170], [-160, 75], [-90, 90])),
         joint(f"{L}ArmRoll", f"{L}Arm", [14.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 90])),
         joint(f"{L}ForeArm", f"{L}ArmRoll", [14.0 * s, 0.0, 0.0], "y", lim(None, [-150, 0], None)),
-        joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-130, 130])),
-        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-90, 90], [-75, 55], None),
+        joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 85])),
+        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-80, 70], [-75, 55], None),
               end=[9.0 * s, 0.0, 0.0]),
     ]
 

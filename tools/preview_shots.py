@@ -38,14 +38,17 @@ def bat_segment(rig, g_rot, g_pos):
 
 
 def draw_sheet(rig, shot, step: int = 4, cell: int = 200, scale: float = 0.8, per_row: int = 6,
-               around: int | None = None) -> Image.Image:
-    """The sheet; with ``around``, only frames within that many of the hit (every ``step``)."""
+               around: int | None = None, first: int | None = None) -> Image.Image:
+    """The sheet; with ``around``, only frames within that many of the hit (every ``step``),
+    with ``first``, none before that frame."""
     g_rot, g_pos = shot.fk
     F = g_pos.shape[0]
     frames = sorted(set(range(0, F, step)) | {shot.hit_frame, F - 1})
     if around is not None:
         h = shot.hit_frame
         frames = list(range(max(h - around, 0), min(h + around, F - 1) + 1, step))
+    if first is not None:
+        frames = [f for f in frames if f >= first]
     top, toe = bat_segment(rig, g_rot, g_pos)
     sk = rig.skeleton
     rh = sk.index("RightHand")
@@ -103,6 +106,7 @@ def main(argv=None):
     ap.add_argument("--step", type=int, default=4)
     ap.add_argument("--around", type=int, help="only frames within this many of the hit")
     ap.add_argument("--per-row", type=int, default=6, help="frames per row")
+    ap.add_argument("--first", type=int, help="no frame before this one")
     a = ap.parse_args(argv)
     rig = default_rig()
     out = Path(a.out)
@@ -111,7 +115,7 @@ def main(argv=None):
         if a.shot and shot.name != a.shot:
             continue
         path = out / f"{shot.name}.png"
-        draw_sheet(rig, shot, a.step, per_row=a.per_row, around=a.around).save(path)
+        draw_sheet(rig, shot, a.step, per_row=a.per_row, around=a.around, first=a.first).save(path)
         print(path)
 
 

@@ -272,8 +272,8 @@ def straight_drive():
         hit=(-2, 30, 212), d_hit=(0, -1, -0.08), n_hit=(0, 0, 1), v_hit=(0, 0.2, 1), pivot=(15, 125, 180),
         follow=[(0.20, bat(grip=(-5, 125, 205), d=(0.1, 0.3, 0.95))),
                 (0.42, bat(grip=(5, 150, 175), d=(0.3, 0.8, -0.5))),
-                (0.58, bat(grip=(10, 128, 168), d=(0.6, -0.2, -0.75))),
-                (0.72, bat(grip=(0, 104, 152), d=(0.05, -0.5, -0.85)))],
+                (0.58, bat(grip=(10, 128, 168), d=(-0.08, -0.41, -0.91))),
+                (0.72, bat(grip=(0, 104, 152), d=(0.04, -0.71, -0.7)))],
         hit_body=body(hips=(23, 74, 160), hips_ypr=(-78, 16, -4), chest=(-70, 32, -8)),
         finish_body=body(hips=(23, 77, 165), hips_ypr=(-70, 12, -3), chest=(-55, 18, -10)),
         desc="Straight drive: front-foot stride 0.68 m, full swing, face to the bowler, high finish.")
@@ -286,7 +286,7 @@ def cover_drive():
         pivot=(5, 125, 172),
         follow=[(0.20, bat(grip=(-30, 120, 195), d=(-0.3, 0.4, 0.85))),
                 (0.42, bat(grip=(-10, 148, 170), d=(0.2, 0.8, -0.5))),
-                (0.58, bat(grip=(10, 128, 168), d=(0.6, -0.2, -0.75))),
+                (0.58, bat(grip=(10, 128, 168), d=(-0.09, -0.18, -0.98))),
                 (0.72, bat(grip=(-4, 104, 152), d=(0.05, -0.5, -0.85)))],
         hit_body=body(hips=(18, 74, 156), hips_ypr=(-72, 18, -4), chest=(-62, 36, -6)),
         finish_body=body(hips=(18, 77, 160), hips_ypr=(-66, 12, -3), chest=(-50, 20, -8)),
@@ -301,14 +301,14 @@ def on_drive():
         pivot=(25, 125, 175),
         follow=[(0.20, bat(grip=(18, 122, 200), d=(0.3, 0.3, 0.9))),
                 (0.42, bat(grip=(20, 148, 172), d=(0.5, 0.7, -0.5))),
-                (0.58, bat(grip=(10, 128, 168), d=(0.6, -0.2, -0.75))),
+                (0.58, bat(grip=(10, 128, 168), d=(0.77, 0.34, -0.55))),
                 (0.72, bat(grip=(4, 104, 152), d=(0.05, -0.5, -0.85)))],
         hit_body=body(hips=(28, 74, 156), hips_ypr=(-70, 16, -4), chest=(-58, 30, -8)),
         finish_body=body(hips=(28, 77, 160), hips_ypr=(-60, 12, -3), chest=(-42, 16, -10)),
         desc="On drive: front foot straight up the pitch, hips open, bat through mid-on.")
 
 
-def back_foot(t0, t1, r_toe, r_yaw, l_toe, l_yaw, bats, hit_body, finish_body, looks):
+def back_foot(t0, t1, r_toe, r_yaw, l_toe, l_yaw, bats, hit_body, finish_body, looks, tilts=()):
     """Back-foot strokes: the back foot goes back and across while the bat is
     at the top (no measured figures; the downswing keeps the ~0.36 s timing)."""
     L, R = Feet("l", t0), Feet("r", t0)
@@ -319,6 +319,7 @@ def back_foot(t0, t1, r_toe, r_yaw, l_toe, l_yaw, bats, hit_body, finish_body, l
     bodies = [(-0.60, body(hips=(28, 83, 118))),
               (-0.36, body(hips=(26, 83, 108), hips_ypr=(-92, 10, 2), chest=(-96, 16, 20))),
               (0.0, hit_body), (0.40, finish_body), (0.85, RECOVER_BODY)]
+    bodies += [(t, {"head_tilt": a}) for t, a in tilts]      # keeps the neck inside its limits
     return compose(t0, t1, bats, bodies, looks, [L, R])
 
 
@@ -328,16 +329,17 @@ def back_foot_defence():
             (-0.55, bat(grip=(18, 100, 106), d=(-0.2, -0.6, -0.75))),
             (-0.36, bat(grip=(25, 108, 88), d=(-0.35, -0.4, -0.85))),
             (-0.18, bat(grip=(8, 120, 118), d=(-0.15, -0.85, -0.5))),
-            (-0.07, bat(hit=hit + V(1, 6, -16), d=(-0.03, -1, -0.22), n=(0, 0, 1))),
-            (0.0, bat(hit=hit, d=(0, -1, -0.3), n=(0, 0, 1))),
-            (0.12, bat(hit=hit + V(-1, -1, 2), d=(0, -1, -0.32), n=(0, 0, 1))),
-            (0.40, bat(hit=hit + V(0, 2, 1), d=(0, -1, -0.28), n=(0, 0, 1))),
+            (-0.07, bat(hit=hit + V(1, 6, -16), d=(-0.3, -0.92, -0.22), n=(0, 0, 1))),
+            (0.0, bat(hit=hit, d=(-0.17, -0.94, -0.28), n=(0, 0, 1))),
+            (0.12, bat(hit=hit + V(-1, -1, 2), d=(-0.34, -0.9, -0.3), n=(0, 0, 1))),
+            (0.40, bat(hit=hit + V(0, 2, 1), d=(-0.3, -0.92, -0.26), n=(0, 0, 1))),
             (0.72, bat(grip=(6, 104, 125), d=(-0.1, -1, -0.2)))]
     looks = [(-0.55, BOWLER), (-0.30, (0, 120, 600)), (0.0, hit + V(0, 0, 10)), (0.40, hit + V(0, -20, 60)),
              (0.95, BOWLER)]
     keys = back_foot(t_frames(30), 1.25, (16, 1, 84), -92.0, (19, 1, 124), -80.0, bats,
                      body(hips=(26, 84, 104), hips_ypr=(-86, 10, 0), chest=(-80, 24, 4)),
-                     body(hips=(26, 84, 105), hips_ypr=(-86, 10, 0), chest=(-80, 22, 4)), looks)
+                     body(hips=(26, 84, 105), hips_ypr=(-86, 10, 0), chest=(-80, 22, 4)), looks,
+                     tilts=[(-0.25, 0.0), (0.0, 10.0), (0.25, 0.0)])
     return keys, "Back-foot defence: back and across, high left elbow, bat angled down over a rising ball."
 
 
@@ -346,7 +348,7 @@ def square_cut():
     # played late, beside the back foot: the bat comes down from a high backlift
     # across the line, toe toward gully, face open toward point
     bats = [(-0.80, dict(STANCE_BAT)),
-            (-0.58, bat(grip=(22, 100, 96), d=(-0.3, -0.2, -0.9))),
+            (-0.58, bat(grip=(22, 100, 96), d=(0.19, 0.05, -0.98))),
             (-0.36, bat(grip=(24, 128, 84), d=(-0.2, 0.65, -0.75))),           # high backlift
             (-0.20, bat(grip=(-14, 136, 80), d=(-0.25, 0.5, -0.85)))]
     bats += swing(hit, d=(-0.7, -0.2, -0.7), n=(-0.7, -0.1, 0.7), v=(0, -0.7, 0.7), peak=10.0,
@@ -367,7 +369,7 @@ def pull():
     # body square to the bowler, the bat horizontal at chest height swung round
     # the body, face closing toward mid-wicket
     bats = [(-0.80, dict(STANCE_BAT)),
-            (-0.58, bat(grip=(20, 110, 106), d=(-0.3, 0.1, -0.95))),
+            (-0.58, bat(grip=(20, 110, 106), d=(-0.05, -0.4, -0.91))),
             (-0.36, bat(grip=(28, 128, 80), d=(-0.45, 0.6, -0.65))),          # high backlift
             (-0.20, bat(grip=(31, 136, 84), d=(-0.65, 0.4, -0.65)))]
     bats += swing(hit, d=(-0.78, 0.03, 0.62), n=(0.6, -0.2, 0.77), v=(0.55, 0, 0.85), peak=10.0,
@@ -389,9 +391,9 @@ def leg_glance():
             (-0.36, bat(grip=(26, 104, 88), d=(-0.3, -0.45, -0.85))),
             (-0.16, bat(grip=(14, 102, 122), d=(-0.1, -0.85, -0.5))),
             (-0.06, bat(hit=hit + V(-2, 6, -12), d=(0, -1, -0.25), n=(0.3, 0, 1))),
-            (0.0, bat(hit=hit, d=(0.05, -1, -0.25), n=(0.72, 0, 0.69))),
+            (0.0, bat(hit=hit, d=(-0.1, -1, -0.25), n=(0.8, 0, 0.6))),
             (0.12, bat(hit=hit + V(4, -1, -3), d=(0.2, -1, -0.3), n=(0.85, 0, 0.55))),
-            (0.40, bat(grip=(14, 102, 122), d=(0.1, -1, -0.3))),
+            (0.40, bat(grip=(14, 102, 122), d=(0.52, -0.83, 0.22))),
             (0.72, bat(grip=(6, 100, 122), d=(-0.1, -1, -0.2)))]
     looks = [(-0.55, BOWLER), (-0.30, (20, 90, 600)), (0.0, hit + V(0, 0, 10)), (0.35, (150, 40, 400)),
              (0.95, BOWLER)]
@@ -417,7 +419,7 @@ def sweep():
     bats += swing(hit, d=(-0.5, -0.55, 0.67), n=(0.78, 0.1, 0.62), v=(0.8, 0, 0.4), peak=10.0,
                   pivot=(15, 100, 165))
     bats += [(0.22, bat(grip=(45, 58, 178), d=(0.3, -0.15, 0.95))),
-             (0.40, bat(grip=(35, 78, 162), d=(0.6, 0.5, 0.6))),
+             (0.40, bat(grip=(35, 78, 162), d=(0.71, -0.24, 0.66))),
              (0.62, bat(grip=(26, 90, 150), d=(0.55, -0.35, 0.75))),
              (0.85, bat(grip=(12, 95, 135), d=(-0.1, -0.9, -0.3)))]
     bodies = [(-0.60, body(hips=(29, 83, 116))),
