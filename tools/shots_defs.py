@@ -328,9 +328,10 @@ def back_foot(t0, t1, r_toe, r_yaw, l_toe, l_yaw, bats, hit_body, finish_body, l
 def back_foot_defence():
     hit = V(-4, 72, 126)
     bats = [(-0.80, dict(STANCE_BAT)),
-            (-0.55, bat(grip=(18, 100, 106), d=(-0.2, -0.6, -0.75))),
-            (-0.36, bat(grip=(25, 108, 88), d=(-0.35, -0.4, -0.85))),
-            (-0.18, bat(grip=(8, 120, 118), d=(-0.15, -0.85, -0.5))),
+            (-0.58, bat(grip=(8, 92, 110), d=(-0.1, -0.8, -0.6))),
+            # a short, early backlift: the bat stays under 3.5 m/s (Stretch et al.'s FD peak)
+            (-0.42, bat(grip=(22, 112, 102), d=(-0.4, -0.5, -0.77))),
+            (-0.22, bat(grip=(12, 118, 118), d=(-0.22, -0.85, -0.48))),
             (-0.07, bat(hit=hit + V(1, 6, -16), d=(-0.3, -0.92, -0.22), n=(0, 0, 1))),
             (0.0, bat(hit=hit, d=(-0.17, -0.94, -0.28), n=(0, 0, 1))),
             (0.12, bat(hit=hit + V(-1, -1, 2), d=(-0.34, -0.9, -0.3), n=(0, 0, 1))),
