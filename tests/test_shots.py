@@ -255,10 +255,11 @@ def test_attacking_shots_meet_the_ball_at_the_fastest_part_of_the_swing(hits):
         assert hits[name]["peak_mps"] <= 1.15 * DRIVE_PEAK_MPS, name
 
 
-def test_defences_are_slow_at_impact_and_drop_the_ball_at_the_feet(hits):
+def test_defences_are_slow_and_drop_the_ball_at_the_feet(hits):
+    """Stretch et al. 1998: the forward defence's bat peaks at 3.5 m/s."""
     from tools.shots_check import DEFENCES, DEFENCE_MAX_MPS, FEET_CM
     for name in DEFENCES:
-        assert hits[name]["speed_mps"] <= DEFENCE_MAX_MPS, name
+        assert hits[name]["peak_mps"] <= DEFENCE_MAX_MPS, (name, hits[name]["peak_mps"])   # the whole shot
         assert hits[name]["first_bounce_cm"] <= FEET_CM, (name, hits[name]["first_bounce_cm"])
         assert hits[name]["elevation_deg"] < 0, name
 
