@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from engine import bvh
+from engine.library import Shot
 from engine.rig import assets_dir, default_rig
 from engine.skeleton import Clip, clip_fk
 
@@ -124,6 +125,13 @@ def report(rig, name, clip, hit):
               f"runs {chk.planted_runs(p, FPS)}")
     for v in chk.limit_violations(rig, clip.local_rotations):
         print("  LIMIT", v)
+    shot = Shot(name, f"{name}.bvh", hit, "", rig.skeleton, clip, rig.bat_joint)
+    m = chk.hit_measures(rig, shot)
+    print(f"  hit: {m['contact']} (face_to_ball {m['face_to_ball']:.2f}), azimuth {m['azimuth_deg']:.1f}, "
+          f"elevation {m['elevation_deg']:.1f}, bat {m['speed_mps']:.1f} m/s (peak {m['peak_mps']:.1f}, "
+          f"{m['peak_offset']:+d} frames), first lands {m['first_bounce_cm']:.0f} cm away")
+    for problem in chk.hit_problems(name, m):
+        print("  HIT", problem)
 
 
 def main(argv=None):

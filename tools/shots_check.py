@@ -183,15 +183,3 @@ def hit_problems(name: str, m: dict) -> list[str]:
             out.append(f"bat at {m['speed_mps']:.1f} m/s at impact (drive ~{DRIVE_PEAK_MPS})")
     return out
 
-
-def hit_table(rig, shots) -> str:
-    """One line per shot: face, direction, speed, peak offset, landing, problems."""
-    rows = [f"{'shot':18s} {'contact':7s} {'cos':>5s} {'az':>7s} {'el':>6s} {'v_hit':>5s} "
-            f"{'peak':>5s} {'dpk':>4s} {'land':>5s}  problems"]
-    for s in shots:
-        m = hit_measures(rig, s)
-        rows.append(f"{s.name:18s} {m['contact']:7s} {m['face_to_ball']:5.2f} {m['azimuth_deg']:7.1f} "
-                    f"{m['elevation_deg']:6.1f} {m['speed_mps']:5.1f} {m['peak_mps']:5.1f} "
-                    f"{m['peak_offset']:+4d} {m['first_bounce_cm']:5.0f}  "
-                    + "; ".join(hit_problems(s.name, m)))
-    return "\n".join(rows)
