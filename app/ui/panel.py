@@ -306,11 +306,20 @@ def _capture_section(settings: ViewerSettings, state: AppState) -> None:
                           "mp4 + PNG frames (viewport size), BVH and glTF (.glb, metres)")
     if imgui.button("Reload shot library"):
         settings.reload_requested = True
+    _export_progress(state)
     _last_capture(state)
     if state.session_line:            # where the session autosaves (app.session)
         imgui.push_text_wrap_pos(0.0)
         imgui.text_colored(DIM, state.session_line)
         imgui.pop_text_wrap_pos()
+
+
+def _export_progress(state: AppState) -> None:
+    """The running export's progress bar (capture.ExportJob.progress, kept by the
+    loop in ``state.export_progress``; None when no export runs)."""
+    progress = getattr(state, "export_progress", None)
+    if progress is not None:
+        imgui.progress_bar(float(progress), imgui.ImVec2(-1.0, 0.0), f"exporting {100 * float(progress):.0f} %")
 
 
 def _last_capture(state: AppState) -> None:

@@ -1,16 +1,25 @@
 """Capture: screenshots of the whole window (F12) and an export of the adapted
 shot: one folder per export holding the rendered frames (PNG sequence and an
-mp4 through imageio-ffmpeg) and the motion itself as BVH and glTF, so the user
-can take what they made into their own tools. The folder is written under a
-temporary name beside the target and renamed when complete: a failed export
-leaves nothing half-written."""
+mp4 through imageio-ffmpeg, H.264 yuv420p tagged and converted as BT.709) and
+the motion itself as BVH and glTF, so the user can take what they made into
+their own tools. The folder is written under a temporary name beside the target
+and renamed when complete: a failed export leaves nothing half-written.
+
+Frames are encoded by a background thread (:class:`FrameEncoder`) while the
+caller renders the next ones; :class:`ExportJob` spreads an export over viewer
+frames (a few frames rendered per ``step``, with its ``progress``), so the
+viewer never freezes. :func:`clean_render` turns the editing overlays off for a
+clean video."""
 from __future__ import annotations
 
 import contextlib
 import os
+import queue
 import shutil
 import tempfile
+import threading
 import time
+from dataclasses import fields
 from pathlib import Path
 
 import imageio.v2 as iio2
@@ -130,69 +139,226 @@ def check_formats(formats) -> tuple[str, ...]:
     return names
 
 
-@contextlib.contextmanager
-def atomic_folder(path: str | os.PathLike):
-    """Yield a temporary folder beside ``path``; on success it is renamed to
-    ``path`` (which must not exist, or be empty), on error it is removed."""
+def _claim_temp_folder(path: str | os.PathLike) -> tuple[Path, Path]:
+    """(target, a new temporary folder beside it) for a folder written then renamed."""
     target = Path(path)
     if target.exists() and (not target.is_dir() or any(target.iterdir())):
         raise FileExistsError(f"{target} already exists")
     if not target.parent.is_dir():   # one new folder, never a whole tree from a typo
         raise FileNotFoundError(f"{target}: folder {target.parent} does not exist")
-    tmp = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
+    return target, Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
+
+
+def _publish(tmp: Path, target: Path) -> None:
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o777 & ~mask)    # mkdtemp makes it private
+    os.replace(tmp, target)
+
+
+@contextlib.contextmanager
+def atomic_folder(path: str | os.PathLike):
+    """Yield a temporary folder beside ``path``; on success it is renamed to
+    ``path`` (which must not exist, or be empty), on error it is removed."""
+    target, tmp = _claim_temp_folder(path)
     try:
         yield tmp
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o777 & ~mask)    # mkdtemp makes it private
-        os.replace(tmp, target)
+        _publish(tmp, target)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
 
 
-def write_frames(images, out_dir: Path, stem: str, fps: float, png: bool = True, mp4: bool = True) -> int:
+# H.264 that players show in the right colours: RGB -> Y'CbCr with the BT.709
+# matrix (ffmpeg's default is BT.601), limited range, tagged as such; odd sizes
+# padded by a pixel (not stretched).
+VIDEO_OUTPUT_PARAMS = ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2,scale=out_color_matrix=bt709:out_range=tv,"
+                       "format=yuv420p", "-colorspace", "bt709", "-color_primaries", "bt709",
+                       "-color_trc", "bt709", "-color_range", "tv",
+                       "-x264-params", "colorprim=bt709:transfer=bt709:colormatrix=bt709"]
+ENCODER_QUEUE = 8          # frames waiting for the encoder: bounded memory, the renderer waits past it
+
+
+class FrameEncoder:
+    """Writes ``(h,w,3)`` uint8 frames to ``frame_0000.png...`` and/or ``{stem}.mp4``
+    in ``out_dir`` on a background thread: ``put`` hands a frame over (waiting only
+    when ``ENCODER_QUEUE`` frames are pending), ``close`` waits for the rest and
+    raises what the thread met; ``written`` counts the frames done."""
+
+    def __init__(self, out_dir: Path, stem: str, fps: float, png: bool = True, mp4: bool = True):
+        self.out_dir, self.stem, self.fps, self.png, self.mp4 = Path(out_dir), stem, fps, png, mp4
+        self.written = 0
+        self._queue: queue.Queue = queue.Queue(ENCODER_QUEUE)
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="hitpoint-encoder", daemon=True)
+        self._thread.start()
+
+    def put(self, image: np.ndarray) -> None:
+        if self._error is not None:
+            raise self._error
+        while self._thread.is_alive():
+            try:
+                self._queue.put(image, timeout=0.1)
+                return
+            except queue.Full:
+                continue
+        raise self._error or RuntimeError("the encoder stopped")
+
+    def close(self) -> int:
+        """Wait for every frame; the number written (raises the encoder's error)."""
+        if self._thread.is_alive():
+            self._queue.put(None)
+            self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self.written
+
+    def _run(self) -> None:
+        writer = None
+        try:
+            if self.mp4:     # imageio-ffmpeg (a dependency) bundles the ffmpeg binary
+                writer = iio2.get_writer(self.out_dir / f"{self.stem}.mp4", fps=self.fps, codec="libx264",
+                                         macro_block_size=1, output_params=VIDEO_OUTPUT_PARAMS,
+                                         ffmpeg_log_level="error")
+            while (img := self._queue.get()) is not None:
+                if self.png:
+                    write_png(self.out_dir / f"frame_{self.written:04d}.png", img)
+                if writer is not None:
+                    writer.append_data(img)
+                self.written += 1
+        except BaseException as e:       # handed to the caller by put / close
+            self._error = e
+            with contextlib.suppress(queue.Empty):
+                while True:
+                    self._queue.get_nowait()     # free a renderer waiting on a full queue
+        finally:
+            if writer is not None:
+                try:
+                    writer.close()
+                except Exception as e:
+                    self._error = self._error or e
+
+
+def write_frames(images, out_dir: Path, stem: str, fps: float, png: bool = True, mp4: bool = True,
+                 on_progress=None) -> int:
     """Stream ``(h,w,3)`` uint8 images to ``frame_0000.png...`` and/or
-    ``{stem}.mp4`` (H.264, yuv420p: plays everywhere) in ``out_dir``.
-    Returns the number of frames."""
-    writer = None
-    if mp4:     # imageio-ffmpeg (a dependency) bundles the ffmpeg binary
-        writer = iio2.get_writer(out_dir / f"{stem}.mp4", fps=fps, codec="libx264", macro_block_size=2,
-                                 ffmpeg_log_level="error")
-    count = 0
+    ``{stem}.mp4`` (H.264, yuv420p BT.709: plays everywhere) in ``out_dir``,
+    encoding on a background thread while ``images`` renders the next ones;
+    ``on_progress(frames_rendered)`` after each. Returns the number of frames."""
+    encoder = FrameEncoder(out_dir, stem, fps, png, mp4)
     try:
         for count, img in enumerate(images, 1):
-            if png:
-                write_png(out_dir / f"frame_{count - 1:04d}.png", img)
-            if writer is not None:
-                writer.append_data(img)
+            encoder.put(img)
+            if on_progress is not None:
+                on_progress(count)
     finally:
-        if writer is not None:
-            writer.close()
-    return count
+        written = encoder.close()
+    return written
 
 
-def write_motion(out_dir: Path, stem: str, skeleton, clip, formats) -> list[Path]:
-    """The clip as ``{stem}.bvh`` / ``.glb`` / ``.gltf`` in ``out_dir`` (those asked for)."""
+def write_motion(out_dir: Path, stem: str, skeleton, clip, formats, takes=None) -> list[Path]:
+    """The clip as ``{stem}.bvh`` / ``.glb`` / ``.gltf`` in ``out_dir`` (those asked for);
+    the glTF holds ``takes`` (engine.export.shot_takes: adapted + source, the ball) if given."""
     paths = []
     if "bvh" in formats:
         paths.append(out_dir / f"{stem}.bvh")
         bvh.write(paths[-1], skeleton, clip)
     for ext in ("glb", "gltf"):
         if ext in formats:
-            paths.append(write_gltf(out_dir / f"{stem}.{ext}", skeleton, clip, name=stem))
+            paths.append(write_gltf(out_dir / f"{stem}.{ext}", skeleton, clip if takes is None else takes, name=stem))
     return paths
 
 
-def export_shot(out_dir, images, fps: float, skeleton, clip, stem: str = "shot", formats=None) -> Path:
+def export_shot(out_dir, images, fps: float, skeleton, clip, stem: str = "shot", formats=None, takes=None,
+                on_progress=None) -> Path:
     """One export folder ``out_dir``: motion files first (quick, and a bad clip
     fails before any rendering), then the frames. Atomic (see ``atomic_folder``)."""
     formats = check_formats(formats)
     with atomic_folder(out_dir) as tmp:
-        write_motion(tmp, stem, skeleton, clip, formats)
+        write_motion(tmp, stem, skeleton, clip, formats, takes)
         if "png" in formats or "mp4" in formats:
-            write_frames(images, tmp, stem, fps, png="png" in formats, mp4="mp4" in formats)
+            write_frames(images, tmp, stem, fps, png="png" in formats, mp4="mp4" in formats,
+                         on_progress=on_progress)
     return Path(out_dir)
+
+
+class ExportJob:
+    """An export spread over viewer frames, so the window never freezes: the motion
+    files at once, then each :meth:`step` renders frames with ``render(f) -> (h,w,3)``
+    on the caller's (GL) thread for about ``budget_s`` and hands them to the
+    background encoder. ``progress`` in [0, 1] for the panel; ``done`` once the
+    folder is complete and renamed into place; :meth:`abort` (or an error) leaves
+    nothing."""
+
+    def __init__(self, out_dir, num_frames: int, fps: float, skeleton, clip, stem: str = "shot", formats=None,
+                 takes=None):
+        formats = check_formats(formats)
+        self.target, self.tmp = _claim_temp_folder(out_dir)
+        self.num_frames, self.next_frame, self.done = int(num_frames), 0, False
+        self.encoder = None
+        try:
+            write_motion(self.tmp, stem, skeleton, clip, formats, takes)
+            if "png" in formats or "mp4" in formats:
+                self.encoder = FrameEncoder(self.tmp, stem, fps, "png" in formats, "mp4" in formats)
+            else:
+                self.num_frames = 0
+        except BaseException:
+            self.abort()
+            raise
+
+    @property
+    def progress(self) -> float:
+        """Share of the frames encoded (rendered ones still queued do not count)."""
+        if self.done or self.num_frames == 0:
+            return 1.0 if self.done else 0.0
+        return min(self.encoder.written, self.num_frames) / self.num_frames
+
+    def step(self, render, budget_s: float = 0.02) -> bool:
+        """Render and queue frames for about ``budget_s`` (at least one); finish when all
+        are rendered. True when the export is complete. Errors abort and re-raise."""
+        try:
+            start = time.perf_counter()
+            while self.next_frame < self.num_frames:
+                self.encoder.put(render(self.next_frame))
+                self.next_frame += 1
+                if time.perf_counter() - start >= budget_s:
+                    return False
+            if self.encoder is not None:
+                self.encoder.close()
+            _publish(self.tmp, self.target)
+            self.done = True
+            return True
+        except BaseException:
+            self.abort()
+            raise
+
+    def abort(self) -> None:
+        """Stop and remove the temporary folder (a finished export is kept)."""
+        if self.encoder is not None:
+            with contextlib.suppress(BaseException):
+                self.encoder.close()
+        if not self.done:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+
+
+# Overlays a clean render turns off: the editing aids (ghost, lines, crosses, paths);
+# the batsman, the ball and the ground stay.
+CLEAN_OFF = ("skeleton", "hit_points", "ball_path", "desired_point", "bat_path", "source_bat_path", "flight")
+
+
+@contextlib.contextmanager
+def clean_render(overlays):
+    """Within: ``overlays`` (app.viewer.settings.Overlays) without the editing aids,
+    for a clean video; restored after, whatever happens."""
+    saved = {f.name: getattr(overlays, f.name) for f in fields(overlays)}
+    try:
+        for name in CLEAN_OFF:
+            setattr(overlays, name, False)
+        overlays.ghost = "off"
+        yield overlays
+    finally:
+        for name, value in saved.items():
+            setattr(overlays, name, value)
 
 
 def describe_export(out_dir: Path) -> str:
