@@ -193,7 +193,8 @@ def plant_lifts(terrain: Terrain, points: np.ndarray, runs: list) -> np.ndarray:
     """(F,) in each planted run ``[a, b)`` the highest terrain under the foot's ``points
     (F, P, 3)`` (a toe rolling over a step's edge lifts the foot by the step at once:
     the foot stays on H rather than easing early); NaN off the runs."""
-    under = terrain.height(points[..., 0], points[..., 2]).max(axis=1)
+    # a point the capture has below its floor (y < 0) is brought up to H, not kept under it
+    under = (terrain.height(points[..., 0], points[..., 2]) - np.minimum(points[..., 1], 0.0)).max(axis=1)
     lift = np.full(len(points), np.nan)
     for a, b in runs:
         lift[a:b] = under[a:b]
