@@ -47,7 +47,8 @@ def _shims() -> None:
 
 def convert_in_blender(src: str, out: str) -> None:
     """Import ``src`` into an empty scene at its own frame rate, write ``out`` (FBX)."""
-    import bpy
+    import importlib
+    bpy = importlib.import_module("bpy")     # Blender's own module, not a pip dependency
     _shims()
     bpy.ops.wm.read_factory_settings(use_empty=True)
     info = gltf_info(src)
