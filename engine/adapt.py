@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -27,23 +26,6 @@ from .ccd import KIND_MULTI, KIND_NONE, ChainArrays, ccd_frame, chain_arrays, ch
 from .quat_nb import q_at, q_put, v_at, v_put, cross, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations
-
-def _drop_stale_numba_cache(module: str, depends: tuple[str, ...]) -> None:
-    """numba's on-disk cache only watches the module's own file: drop ``module``'s
-    cached kernels when a module they call into was edited after them."""
-    here = Path(__file__).resolve().parent
-    try:
-        newest = max((here / d).stat().st_mtime for d in depends)
-        for f in (here / "__pycache__").glob(f"{module}.*.nb[ic]"):
-            if f.stat().st_mtime < newest:
-                f.unlink(missing_ok=True)
-    except OSError:
-        pass
-
-
-_drop_stale_numba_cache("ccd", ("quat_nb.py",))
-_drop_stale_numba_cache("dls", ("ccd.py", "quat_nb.py"))
-_drop_stale_numba_cache("adapt", ("ccd.py", "dls.py", "quat_nb.py"))
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position

@@ -214,7 +214,7 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
 # ------------------------------------------------- right hand, compiled path
 from numba import njit
 
-from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, ORIENT_TOL, _drop_stale_numba_cache, \
+from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, ORIENT_TOL, \
     both_arms_solve, grip_solve, orient_finish
 from .ccd import ccd_frame, chain_arrays, chain_fk, chain_scratch, limit_euler
 from .quat_nb import q_at, q_put, v_at, clamp_angle, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
@@ -224,7 +224,6 @@ BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when cho
 TURN_COST = 0.005               # ... and a degree of the bat turning
 WARM_ITER = 80                  # Newton steps from the previous frame's right arm
 
-_drop_stale_numba_cache("cleanup", ("adapt.py", "ccd.py", "dls.py", "quat_nb.py"))
 
 @njit(cache=True)
 def _fk_frames(parents, trans, local, out_rot, out_pos):
