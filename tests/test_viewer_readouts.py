@@ -60,3 +60,34 @@ def test_the_panel_twist_choice_reaches_the_engine(state):
         contacts[twist] = float(face.face_to_ball(n, BALL_START, a.desired_hit_point))
     assert face.contact(contacts["follow"]) == "face" and contacts["lead"] < contacts["follow"] - 0.2
     assert ViewerSettings(twist="follow").engine_key() != ViewerSettings(twist="lead").engine_key()
+
+
+def test_a_direction_asked_on_the_wagon_wheel_is_hit_once_the_target_holds_still(state):
+    """Issue 14 item 3 in the viewer: ``aim_direction``/``direction`` (what the wagon wheel
+    writes) turn the face only after the target has held still (AIM_SETTLE_S), land within
+    a few degrees inside the shot's reach, and dropping the request gives the plain solve."""
+    from app.viewer.update import AIM_SETTLE_S, update
+    index = [s.name for s in state.shots].index("cover_drive")
+    settings = ViewerSettings(pinned_shot="cover_drive", target=default_target(state, index))
+    state.solved_key = None
+    update(state, settings, 1 / 60)
+    plain = state.readouts.ball_azimuth_deg
+    source = state.readouts.source_azimuth_deg
+    assert plain == pytest.approx(source, abs=0.5) and state.readouts.aim_reached is None
+    settings.set("aim_direction", True)
+    settings.set("direction", plain + 15.0)
+    update(state, settings, AIM_SETTLE_S / 4)          # still settling: nothing aimed yet
+    assert state.readouts.aim_reached is None
+    for _ in range(5):
+        update(state, settings, AIM_SETTLE_S / 2)
+    r = state.readouts
+    assert r.aim_reached is not None and r.contact == "face"
+    lo, hi = r.aim_range_deg
+    if lo <= plain + 15.0 <= hi:
+        assert r.aim_reached and abs(r.ball_azimuth_deg - (plain + 15.0)) < 3.0
+    assert np.linalg.norm(state.adaptation.global_positions[state.shot.hit_frame, state.rig.bat_joint]
+                          - state.desired_hit_point) < 0.01
+    settings.set("aim_direction", False)
+    update(state, settings, 1 / 60)
+    assert state.readouts.aim_reached is None and state.readouts.ball_azimuth_deg == pytest.approx(plain, abs=1e-6)
+    assert len(state.azimuth_trail) >= 3               # what the wagon wheel draws as the trail

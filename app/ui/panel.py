@@ -10,6 +10,7 @@ from imgui_bundle import imgui, implot
 
 from app.viewer.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, RENDER_SCALE_RANGE,
                           SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TWISTS, ViewerSettings)
+from app.ui.wagonwheel import draw_wagon_wheel
 from app.ui.padwidget import draw_pc_pad
 from app.viewer.state import AppState
 
@@ -230,6 +231,7 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
             else:
                 imgui.text(value)
         imgui.end_table()
+    draw_wagon_wheel(settings, state)
 
 
 def _impact_rows(r) -> list[tuple[str, str]]:

@@ -25,7 +25,8 @@ MAX_FRAME_SETTING = 1e6             # a playback frame far past any shot (playba
 MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
 # What ``set`` checks beyond the type: ranges and choices per key.
 SETTING_RANGES = {"falloff": FALLOFF_RANGE, "iterations": ITERATIONS_RANGE, "tolerance": TOLERANCE_RANGE,
-                  "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING)}
+                  "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING),
+                  "direction": (-180.0, 180.0)}
 SETTING_CHOICES = {"solver": SOLVERS, "twist": TWISTS, "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
 # Fields that are no setting of the user's: requests the loop consumes (scripts have the
 # screenshot, export and key events for them) and the overlay group as a whole.
@@ -59,6 +60,9 @@ class ViewerSettings:
     # scene
     target: np.ndarray = field(default_factory=lambda: np.array([0.0, 60.0, TARGET_PLANE_Z]))
     pinned_shot: str | None = None  # None: chosen by the ball path
+    # "hit it that way" (engine.direction): the ball's azimuth asked for, deg (0 straight, + off side)
+    aim_direction: bool = False
+    direction: float = 0.0
     # playback (frame is fractional: slow motion shows in-between poses)
     frame: float = 0.0
     playing: bool = False
@@ -86,6 +90,7 @@ class ViewerSettings:
         self.speed = _clamp(_finite(self.speed, 1.0), *SPEED_RANGE)
         self.frame = float(max(_finite(self.frame, 0.0), 0.0))
         self.render_scale = _clamp(_finite(self.render_scale, 1.0), *RENDER_SCALE_RANGE)
+        self.direction = _clamp(_finite(self.direction, 0.0), -180.0, 180.0)
         t = np.asarray(self.target, float).reshape(-1)[:3]
         self.target = clamp_target(t if t.size == 3 and np.isfinite(t).all() else (0.0, 60.0, 0.0))
         if self.overlays.ghost not in GHOST_MODES:
@@ -96,6 +101,10 @@ class ViewerSettings:
         return AdaptSettings(falloff=self.falloff, wrist_dof=self.wrist_dof, solver=self.solver,
                              iterations=self.iterations, tolerance=self.tolerance,
                              fix_right_hand=self.fix_right_hand, twist=self.twist)
+
+    def aim_key(self) -> tuple | None:
+        """The engine key with the asked direction, or None when no direction is asked."""
+        return self.engine_key() + (round(self.direction, 3),) if self.aim_direction else None
 
     def engine_key(self) -> tuple:
         """Everything the adaptation depends on; a change means re-solve."""

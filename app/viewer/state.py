@@ -26,6 +26,9 @@ class Readouts:
     face_angle_deg: float = float("nan")    # the adapted face against the source's, at the hit frame
     ball_azimuth_deg: float = float("nan")  # where the ball goes (DESIGN.md: 0 straight, + off side)
     ball_elevation_deg: float = float("nan")
+    source_azimuth_deg: float = float("nan")  # where the source shot sends the ball from its own hit point
+    aim_reached: bool | None = None         # the asked direction reached (None: none asked / not yet aimed)
+    aim_range_deg: tuple = ()               # the directions the shot can give with the face
     engine_ms: float = 0.0                  # engine time spent this frame
     solve_ms: float = 0.0                   # last whole-shot solve
     render_ms: float = 0.0
@@ -87,6 +90,10 @@ class AppState:
     flight_dt: float = 1.0 / 30.0                     # seconds between flight samples
     time_blend: np.ndarray | None = None              # (F,) the time-based curve of Figure 2.3
     solved_key: tuple | None = None
+    aimed_key: tuple | None = None                    # settings.aim_key() of the last aimed solve
+    still_s: float = 0.0                              # how long the engine key has held still
+    azimuth_trail: list = field(default_factory=list)  # recent ball azimuths (deg), newest last
+    source_azimuths: dict = field(default_factory=dict)  # shot index -> its source's ball azimuth (deg)
     solve_count: int = 0
     # this frame
     pose: Pose | None = None

@@ -16,12 +16,15 @@ from app.viewer.state import AppState, Pose
 from engine import ballistics
 from engine.adapt import Adapter
 from engine.choice import BALL_START, choose_shot
+from engine.direction import aim
 from engine.rig import default_rig
 from engine.userlib import load_shots
 from engine.skeleton import bind_positions
 
 
 FLIGHT_DT = 1.0 / 120.0   # s between samples of engine.ballistics.fly (its default step)
+AIM_SETTLE_S = 0.25       # the target holds still this long before the face is turned for a direction
+TRAIL_LENGTH = 90         # ball directions kept for the wagon wheel (the live Fig. 2.6)
 
 
 def load_library(state: AppState, manifest=None) -> bool:
@@ -42,6 +45,7 @@ def load_library(state: AppState, manifest=None) -> bool:
     state.hit_points = np.array([s.hit_point for s in shots], float)
     state.bind_positions = bind_positions(rig.skeleton)
     state.adapters.clear()
+    state.source_azimuths.clear()
     state.shot_index = min(max(state.shot_index, 0), len(shots) - 1)
     state.solved_key = None
     state.status["library"] = "ok"
@@ -85,9 +89,12 @@ def update(state: AppState, settings: ViewerSettings, dt: float, pad_requests=()
         # the first solve builds the adapter: solved once more, the panel's readout shows a re-solve
         if solve(state, settings) and state.solved_key is None:
             solve(state, settings)
-        state.solved_key = key
+        state.solved_key, state.aimed_key, state.still_s = key, None, 0.0
     elif state.adaptation is None:       # the solver compiles: the source of the shot it will adapt
         state.shot_index = choose(state, settings)[0]
+    else:
+        state.still_s += dt
+        aim_step(state, settings)
     t0 = time.perf_counter()
     pose_at(state, settings.frame)
     ball_at(state, settings.frame)
@@ -97,6 +104,21 @@ def update(state: AppState, settings: ViewerSettings, dt: float, pad_requests=()
     state.readouts.engine_ms += (time.perf_counter() - t0) * 1e3
     if not state.gesture and not settings.playing and solver_ready(state):
         prewarm(state)      # idle frames only; not in the readout: it is no work of this frame's
+
+
+def aim_step(state: AppState, settings: ViewerSettings) -> None:
+    """"Hit it that way": once the target holds still (AIM_SETTLE_S; the search costs ~0.1 s,
+    too much for every frame of a drag), the shot re-solved with the face turned toward
+    ``settings.direction``; back to the plain solve when the request is dropped."""
+    want = settings.aim_key()
+    if want is None:
+        if state.aimed_key is not None:
+            solve(state, settings)
+            state.aimed_key = None
+        return
+    if want != state.aimed_key and state.still_s >= AIM_SETTLE_S and solver_ready(state):
+        solve(state, settings, settings.direction)
+        state.aimed_key = want
 
 
 def solver_ready(state: AppState) -> bool:
@@ -152,12 +174,19 @@ def prewarm(state: AppState) -> bool:
     return False
 
 
-def solve(state: AppState, settings: ViewerSettings) -> bool:
-    """Re-adapt the whole shot; on any engine error keep the last good state."""
+def solve(state: AppState, settings: ViewerSettings, direction: float | None = None) -> bool:
+    """Re-adapt the whole shot (with ``direction``: the ball sent that way by the face,
+    engine.direction); on any engine error keep the last good state."""
     t0 = time.perf_counter()
+    aimed = None
     try:
         index, desired = choose(state, settings)
-        adaptation = adapter_for(state, index).adapt(desired, settings.adapt_settings())
+        if direction is None:
+            adaptation = adapter_for(state, index).adapt(desired, settings.adapt_settings())
+        else:
+            aimed = aim(state.rig, state.shots[index], desired, direction, settings.adapt_settings(),
+                        state.ball_start)
+            adaptation = aimed.adaptation
         check_finite(adaptation)
         flight, flight_dt = ball_flight(state, index, adaptation, desired)
     except Exception as e:
@@ -173,8 +202,19 @@ def solve(state: AppState, settings: ViewerSettings) -> bool:
                                         adaptation.blend)
     state.readouts.bat_error_cm = float(adaptation.bat_error_cm)
     state.readouts.max_grip_error_cm = float(np.max(adaptation.grip_error_cm))
+    state.readouts.aim_reached = None if aimed is None else bool(aimed.reached)
+    state.readouts.aim_range_deg = () if aimed is None else tuple(aimed.range_deg)
+    _trail(state, index)
     state.solve_count += 1
     return True
+
+
+def _trail(state: AppState, index: int) -> None:
+    """The ball's direction after each solve, for the wagon wheel; a new shot starts a new trail."""
+    if state.azimuth_trail and state.azimuth_trail[-1][0] != index:
+        state.azimuth_trail.clear()
+    state.azimuth_trail.append((index, state.readouts.ball_azimuth_deg))
+    del state.azimuth_trail[:-TRAIL_LENGTH]
 
 
 def check_finite(adaptation) -> None:
@@ -197,6 +237,11 @@ def ball_flight(state: AppState, index: int, adaptation, desired) -> tuple[np.nd
     r.contact, r.face_to_ball = hit.contact, float(hit.face_to_ball)
     r.ball_azimuth_deg, r.ball_elevation_deg = hit.azimuth_deg, hit.elevation_deg
     r.face_angle_deg = face_angle
+    if index not in state.source_azimuths:     # the source's own direction, once per shot
+        grot, gpos = shot.fk
+        src, _ = ballistics.shot_flight(rig, shot, grot, gpos, state.ball_start, shot.hit_point, duration=0.0)
+        state.source_azimuths[index] = src.azimuth_deg
+    r.source_azimuth_deg = state.source_azimuths[index]
     return polyline, FLIGHT_DT
 
 

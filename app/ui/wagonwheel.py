@@ -1,0 +1,101 @@
+"""The wagon wheel in the panel: where the ball goes, seen from above with the bowler at
+the top and the off side on the right (a right-hander) — the live Figure 2.6.
+
+Drawn: the current direction (green off the face, red off the edge or the back), the
+source shot's own direction (grey), the directions of the last solves as the target
+moved (dots, fading with age) and the direction asked for (yellow). A click or a drag
+on the wheel asks for that direction (``settings.aim_direction``/``direction``: the
+update turns the face once the target holds still); a right click drops the request.
+It writes settings only; the engine runs in the update."""
+from __future__ import annotations
+
+import math
+
+from imgui_bundle import imgui
+
+WHEEL_PX = (120.0, 220.0)        # the wheel's size range in the panel
+FACE_RGBA = (0.35, 0.85, 0.40, 1.0)
+MISS_RGBA = (0.95, 0.35, 0.30, 1.0)
+SOURCE_RGBA = (0.70, 0.70, 0.70, 0.9)
+ASKED_RGBA = (1.00, 0.85, 0.20, 1.0)
+FIELD_RGBA = (0.20, 0.42, 0.20, 1.0)
+PITCH_RGBA = (0.78, 0.72, 0.55, 1.0)
+
+
+def _u32(rgba, alpha: float | None = None) -> int:
+    r, g, b, a = rgba
+    return imgui.get_color_u32(imgui.ImVec4(r, g, b, a if alpha is None else alpha))
+
+
+def point_at(centre: tuple, radius: float, azimuth_deg: float) -> tuple[float, float]:
+    """Screen point (y down) of an azimuth: 0 up (toward the bowler), + clockwise (off side)."""
+    a = math.radians(azimuth_deg)
+    return centre[0] + radius * math.sin(a), centre[1] - radius * math.cos(a)
+
+
+def azimuth_of(centre: tuple, x: float, y: float) -> float:
+    """The azimuth (deg) a screen point shows, the inverse of :func:`point_at`."""
+    return math.degrees(math.atan2(x - centre[0], centre[1] - y))
+
+
+def draw_wagon_wheel(settings, state) -> None:
+    r = state.readouts
+    if not r.contact:
+        imgui.text_disabled("wagon wheel: no hit yet")
+        return
+    size = float(min(max(imgui.get_content_region_avail().x * 0.6, WHEEL_PX[0]), WHEEL_PX[1]))
+    origin = imgui.get_cursor_screen_pos()
+    imgui.invisible_button("##wagon_wheel", imgui.ImVec2(size, size))
+    centre, radius = (origin.x + size / 2, origin.y + size / 2), size / 2 - 4
+    _ask(settings, centre, radius)
+    dl = imgui.get_window_draw_list()
+    c = imgui.ImVec2(*centre)
+    dl.add_circle_filled(c, radius, _u32(FIELD_RGBA), 48)
+    dl.add_rect_filled(imgui.ImVec2(c.x - 3, c.y - radius * 0.45), imgui.ImVec2(c.x + 3, c.y), _u32(PITCH_RGBA))
+    trail = [az for _, az in state.azimuth_trail]
+    for i, az in enumerate(trail):
+        if math.isfinite(az):
+            dl.add_circle_filled(imgui.ImVec2(*point_at(centre, radius * 0.8, az)), 2.5,
+                                 _u32(FACE_RGBA, 0.15 + 0.6 * (i + 1) / len(trail)))
+    _ray(dl, centre, radius, r.source_azimuth_deg, SOURCE_RGBA, 1.5)
+    if settings.aim_direction:
+        _ray(dl, centre, radius, settings.direction, ASKED_RGBA, 2.0)
+    _ray(dl, centre, radius, r.ball_azimuth_deg, FACE_RGBA if r.contact == "face" else MISS_RGBA, 3.0)
+    dl.add_text(imgui.ImVec2(c.x - 12, origin.y + 2), _u32(SOURCE_RGBA), "bowler")
+    dl.add_text(imgui.ImVec2(origin.x + size - 22, c.y - 7), _u32(SOURCE_RGBA), "off")
+    dl.add_text(imgui.ImVec2(origin.x + 2, c.y - 7), _u32(SOURCE_RGBA), "leg")
+    _caption(settings, r)
+
+
+def _ray(dl, centre, radius, azimuth_deg: float, rgba, thickness: float) -> None:
+    if math.isfinite(azimuth_deg):
+        dl.add_line(imgui.ImVec2(*centre), imgui.ImVec2(*point_at(centre, radius, azimuth_deg)), _u32(rgba),
+                    thickness)
+
+
+def _ask(settings, centre, radius) -> None:
+    """A press or drag inside the wheel asks for its direction; a right click drops it."""
+    if imgui.is_item_active() and imgui.is_mouse_down(imgui.MouseButton_.left):
+        m = imgui.get_mouse_pos()
+        if math.hypot(m.x - centre[0], m.y - centre[1]) > 0.15 * radius:   # the centre has no direction
+            settings.aim_direction = True
+            settings.direction = round(azimuth_of(centre, m.x, m.y), 1)
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("click or drag: hit the ball this way; right click: as the shot goes")
+        if imgui.is_mouse_clicked(imgui.MouseButton_.right):
+            settings.aim_direction = False
+
+
+def _caption(settings, r) -> None:
+    if not settings.aim_direction:
+        imgui.text_disabled(f"source goes {r.source_azimuth_deg:+.0f} deg; click the wheel to aim")
+        return
+    if r.aim_reached is None:
+        imgui.text(f"asked {settings.direction:+.0f} deg: aiming when the target holds still")
+        return
+    lo, hi = r.aim_range_deg or (float("nan"), float("nan"))
+    text = f"asked {settings.direction:+.0f} deg, goes {r.ball_azimuth_deg:+.0f} (reach {lo:+.0f}..{hi:+.0f})"
+    if r.aim_reached:
+        imgui.text(text)
+    else:
+        imgui.text_colored(imgui.ImVec4(*MISS_RGBA), text + ": closest it gives")
