@@ -90,3 +90,22 @@ def test_adapt_out_csv_has_the_blend_and_continuous_angles(tmp_path, rig):
     assert "Bat_rz_deg" not in head and "LeftForeArm_ry_deg" in head
     angles = np.stack([v for n, v in cols.items() if n.endswith("_deg")], 1)
     assert np.abs(np.diff(angles, axis=0)).max() < 180                                  # never a wrap
+
+
+def test_adapt_csv_rotations_option(tmp_path):
+    """adapt --csv-rotations quaternion writes unit quaternion columns; a bad choice is one line."""
+    import subprocess
+    import sys
+    cli = [sys.executable, "-c", "from app.cli import main; main()", "adapt", "--shot", "cover_drive",
+           "--hit", "-70", "45", "215"]
+    out = tmp_path / "q.csv"
+    r = subprocess.run(cli + ["--out", str(out), "--csv-rotations", "quaternion"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    head = out.read_text().splitlines()[0].split(",")
+    q = [i for i, h in enumerate(head) if h.startswith("LeftArm_q")]
+    assert [head[i] for i in q] == ["LeftArm_qw", "LeftArm_qx", "LeftArm_qy", "LeftArm_qz"]
+    import numpy as np
+    rows = np.loadtxt(out, delimiter=",", skiprows=1)
+    np.testing.assert_allclose(np.linalg.norm(rows[:, q], axis=1), 1.0, atol=1e-5)
+    r = subprocess.run(cli + ["--csv-rotations", "nope"], capture_output=True, text=True)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1

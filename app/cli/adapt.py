@@ -23,7 +23,8 @@ WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 
 def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
               twist="follow", direction=None, out: Optional[Path] = None, bvh=None, profile="auto",
-              hit_frame="auto", handed=None, scale=None, offset=None, library=None) -> dict:
+              hit_frame="auto", handed=None, scale=None, offset=None, library=None,
+              csv_rotations="euler") -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
     from engine.adapt import Adapter, AdaptSettings, check_settings  # numba (0.25 s): when the command runs
 
@@ -62,7 +63,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     if out is not None and shot.capture is not None:
         shot.capture.write(out, a.local_rotations, a.root_positions, a.blend, f"{shot.name}_adapted")
     elif out is not None:
-        _write(out, rig, shot, a)
+        _write(out, rig, shot, a, csv_rotations)
     r = lambda v: [round(float(x), 4) for x in v]  # noqa: E731
     return {
         "shot": shot.name,
@@ -169,7 +170,9 @@ def _write(out: Path, rig, shot, a, csv_rotations: str = "euler") -> None:
 
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
           "--solver": 1, "--twist": 1, "--direction": 1, "--out": 1, "--bvh": 1, "--profile": 1,
-          "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1}
+          "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1,
+          "--csv-rotations": 1}
+CSV_ROTATIONS = ("euler", "quaternion")
 MAX_SCALE = 1e4        # cm per file unit: beyond a kilometre a unit is a mistake
 
 
@@ -233,6 +236,10 @@ def capture_args(got: dict) -> dict:
         out["scale"] = number("--scale", got["--scale"][0], 1.0 / MAX_SCALE, MAX_SCALE)
     if "--offset" in got:
         out["offset"] = position("--offset", got["--offset"])
+    if "--csv-rotations" in got:
+        out["csv_rotations"] = got["--csv-rotations"][0]
+        if out["csv_rotations"] not in CSV_ROTATIONS:
+            raise UserError(f"--csv-rotations must be euler or quaternion, got {shorten(out['csv_rotations'])!r}")
     return out
 
 
@@ -257,7 +264,13 @@ def register(cli: typer.Typer) -> None:
                               the shot's reach: the closest it gives, and
                               direction_reached false in the JSON
           --out FILE          write the adapted shot (atomic): .bvh, .csv, .glb
-                              or .gltf (skinned batsman + animation, metres)
+                              or .gltf (skinned batsman, the adapted and the
+                              source take, the ball; metres)
+          --csv-rotations euler|quaternion   the CSV's rotation columns
+          --bvh FILE --offset DX DY DZ | --hit X Y Z   your own capture, on its
+                              own skeleton (--profile NAME|auto, --hit-frame
+                              N|auto, --handed right|left, --scale CM_PER_UNIT)
+          --library DIR       shots from your own library (hitpoint library init)
         JSON keys: shot, hit_frame, source_hit_point, desired_hit_point,
         bat_error_cm, blend (per frame), grip_error_cm, grip_error_deg,
         face_angle_deg (bat face at the hit frame vs the source's), face_to_ball
