@@ -401,9 +401,16 @@ def test_viewer_export_writes_mp4_bvh_glb(app, rig, tmp_path):
     import imageio.v2 as iio2
     out = tmp_path / "export"
     frame, errors = app.settings.frame, app.state.errors
+    app.state.last_export = None
     app.request_export(out)
-    app.frame(dt=1 / 60)
+    progress = []
+    for _ in range(2000):            # the export runs a few frames at a time, the window stays live
+        app.frame(dt=1 / 60)
+        if app.state.last_export is not None and app.state.export_progress is None:
+            break
+        progress.append(app.state.export_progress)
     assert app.state.errors == errors, app.state.messages
+    assert len(progress) > 1 and progress == sorted(progress) and 0.0 <= progress[0] < 1.0
     ok, line = app.state.last_export.ok, app.state.last_export.line
     assert ok and line.startswith(str(out)) and app.state.last_capture == str(out)
     assert app.settings.frame == frame
@@ -435,7 +442,10 @@ def test_viewer_export_that_fails_leaves_nothing(app, tmp_path, monkeypatch):
     monkeypatch.setattr(app, "render_scene", failing)
     frame, errors = app.settings.frame, app.state.errors
     app.request_export(tmp_path / "export")
-    app.frame(dt=1 / 60)
+    for _ in range(200):
+        app.frame(dt=1 / 60)
+        if app.state.export_progress is None:
+            break
     assert len(calls) >= 5
     assert list(tmp_path.iterdir()) == []
     ok, line = app.state.last_export.ok, app.state.last_export.line

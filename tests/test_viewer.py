@@ -298,6 +298,9 @@ def test_f12_screenshot_and_frame_export(app, tmp_path, monkeypatch):
     frame, errors = app.settings.frame, app.state.errors
     app.request_export(out)
     run(app, 1)
+    assert app.state.export_progress is not None       # spread over frames: the window stays live
+    app.finish_exports()
+    assert app.state.export_progress is None
     frames = sorted(out.glob("frame_*.png"))
     assert len(frames) == app.state.num_frames
     first, hit = (np.asarray(Image.open(frames[i]), int) for i in (0, app.state.shot.hit_frame))

@@ -306,6 +306,12 @@ def _capture_section(settings: ViewerSettings, state: AppState) -> None:
     if imgui.is_item_hovered():
         imgui.set_tooltip("A new folder in the working directory: the adapted shot as\n"
                           "mp4 + PNG frames (viewport size), BVH and glTF (.glb, metres)")
+    imgui.same_line()
+    changed, clean = imgui.checkbox("clean video", settings.clean_video)
+    if changed:
+        settings.clean_video = clean
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("the export's video without the editing aids (ghost, paths, crosses)")
     if imgui.button("Reload shot library"):
         settings.reload_requested = True
     _export_progress(state)
@@ -319,7 +325,7 @@ def _capture_section(settings: ViewerSettings, state: AppState) -> None:
 def _export_progress(state: AppState) -> None:
     """The running export's progress bar (capture.ExportJob.progress, kept by the
     loop in ``state.export_progress``; None when no export runs)."""
-    progress = getattr(state, "export_progress", None)
+    progress = state.export_progress
     if progress is not None:
         imgui.progress_bar(float(progress), imgui.ImVec2(-1.0, 0.0), f"exporting {100 * float(progress):.0f} %")
 

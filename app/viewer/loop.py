@@ -11,6 +11,7 @@ from __future__ import annotations
 import gc
 import time
 from collections import deque
+from contextlib import nullcontext
 from pathlib import Path
 
 import moderngl
@@ -34,7 +35,10 @@ from app.ui.timeline import TIMELINE_HEIGHT, draw_timeline
 from app.viewer.update import ball_at, default_target, load_library, pose_at, update
 from app.viewer.warmup import EngineWarmup
 from app.render.window import open_window
+from engine.export import shot_takes
 from engine.skeleton import Clip
+
+EXPORT_BUDGET_S = 0.02     # export rendering per viewer frame: the window stays responsive
 
 
 def layout(window_size: tuple[int, int]) -> dict[str, tuple]:
@@ -93,6 +97,7 @@ class App:
         self._frame_stamps: deque = deque()
         self._pending_screenshots: list[Path] = []
         self._pending_exports: list[Path] = []
+        self._export = None          # (capture.ExportJob, framebuffer, folder, claimed) while one runs
         # The ~150k objects made while starting (numba, imgui, the library) live as long as
         # the window: frozen, a full garbage collection no longer walks them, which froze a
         # drag for ~120 ms every few hundred frames.
@@ -310,52 +315,81 @@ class App:
                 self.state.last_capture = str(written)
             except Exception as e:
                 self.state.report(f"screenshot: {type(e).__name__}: {e}")
-        while self._pending_exports:
-            out, formats = self._pending_exports.pop(0)
-            claimed = out is None
-            try:
-                out = capture.new_export_dir() if claimed else out
-                folder = self.export_shot(out, formats)
-            except Exception as e:
-                if claimed and out is not None:
-                    capture.release(out)
-                self.state.report(f"export: {type(e).__name__}: {e}")
-                self.state.last_export = ExportNote(False, f"export to {out} failed: {e}")
-            else:
-                self.state.last_capture = str(folder)
-                self.state.last_export = ExportNote(True, capture.describe_export(folder))
+        if self._export is None and self._pending_exports:
+            self._start_export(*self._pending_exports.pop(0))
+        if self._export is not None:
+            self._step_export(EXPORT_BUDGET_S)
 
-    def export_shot(self, out_dir, formats=None) -> Path:
-        """Export the adapted shot (the source shot when nothing is adapted) into
-        the new folder ``out_dir``: every frame rendered at the viewport's size
-        (PNG sequence, mp4) and the motion as BVH / glTF (``capture.export_shot``)."""
-        state, settings = self.state, self.settings
-        shot, adapted = state.shot, state.adaptation
-        if shot is None:
-            raise ValueError("no shot loaded")
-        clip = shot.clip if adapted is None else Clip(adapted.root_positions, adapted.local_rotations, shot.clip.fps)
-        keep = settings.frame
-
+    def _start_export(self, out, formats) -> None:
+        """An export job for the adapted shot (the source shot when nothing is adapted): the
+        motion (BVH / glTF with both takes and the ball) at once, then every frame rendered
+        at the viewport's size (PNG sequence, mp4) a few at a time (``capture.ExportJob``)."""
+        state, claimed = self.state, out is None
+        try:
+            out = capture.new_export_dir() if claimed else out
+            shot, adapted = state.shot, state.adaptation
+            if shot is None:
+                raise ValueError("no shot loaded")
+            clip = shot.clip if adapted is None else Clip(adapted.root_positions, adapted.local_rotations, shot.clip.fps)
+            takes = None if adapted is None else shot_takes(state.rig, shot, clip, state.desired_hit_point,
+                                                            state.ball_start, shot.hit_point)
+            stem = shot.name if adapted is None else f"{shot.name}_adapted"
+            job = capture.ExportJob(out, state.num_frames, state.fps, shot.skeleton, clip, stem, formats, takes)
+        except Exception as e:
+            self._export_failed(out, claimed, e)
+            return
         _, _, w, h = self.compositor.viewport_px
         fbo = self.ctx.framebuffer([self.ctx.texture((w, h), 4)], self.ctx.depth_renderbuffer((w, h)))
+        self._export = (job, fbo, out, claimed)
 
-        def images():
-            try:
-                for f in range(state.num_frames):
-                    pose_at(state, float(f))
-                    ball_at(state, float(f))
-                    self.render_scene(fbo)
-                    yield capture.read_rgb(fbo)
-            finally:
-                pose_at(state, keep)
-                ball_at(state, keep)
+    def _step_export(self, budget_s: float) -> bool:
+        """Render the export's next frames for about ``budget_s`` (the pose on screen is put
+        back after); True when no export runs any more."""
+        job, fbo, out, claimed = self._export
+        state, keep = self.state, self.settings.frame
+
+        def render(f: int):
+            pose_at(state, float(f))
+            ball_at(state, float(f))
+            with capture.clean_render(self.settings.overlays) if self.settings.clean_video else nullcontext():
+                self.render_scene(fbo)
+            return capture.read_rgb(fbo)
         try:
-            stem = shot.name if adapted is None else f"{shot.name}_adapted"
-            return capture.export_shot(out_dir, images(), state.fps, shot.skeleton, clip, stem, formats)
+            done = job.step(render, budget_s)
+        except Exception as e:
+            self._end_export()
+            self._export_failed(out, claimed, e)
+            return True
         finally:
-            for a in (*fbo.color_attachments, fbo.depth_attachment):
-                a.release()
-            fbo.release()
+            pose_at(state, keep)
+            ball_at(state, keep)
+        state.export_progress = job.progress
+        if done:
+            self._end_export()
+            state.last_capture = str(out)
+            state.last_export = ExportNote(True, capture.describe_export(Path(out)))
+        return done
+
+    def _end_export(self) -> None:
+        _, fbo, _, _ = self._export
+        for a in (*fbo.color_attachments, fbo.depth_attachment):
+            a.release()
+        fbo.release()
+        self._export, self.state.export_progress = None, None
+
+    def _export_failed(self, out, claimed: bool, e: Exception) -> None:
+        if claimed and out is not None:
+            capture.release(out)
+        self.state.report(f"export: {type(e).__name__}: {e}")
+        self.state.last_export = ExportNote(False, f"export to {out} failed: {e}")
+
+    def finish_exports(self) -> None:
+        """Run the export under way and the queued ones to the end (at exit, scripted runs)."""
+        while self._export is not None or self._pending_exports:
+            if self._export is None:
+                self._start_export(*self._pending_exports.pop(0))
+            else:
+                self._step_export(1.0)
 
     # -- loops ------------------------------------------------------------------
     def run(self) -> None:
@@ -365,6 +399,7 @@ class App:
     def close(self) -> None:
         gc.unfreeze()        # what this window froze can be collected again
         try:
+            self.finish_exports()       # what the user asked for is written before the window goes
             if self.session is not None:
                 self.session.close(self.settings, self.state, self.camera)
             self.gui.release()

@@ -71,6 +71,7 @@ class ViewerSettings:
     loop: bool = True
     overlays: Overlays = field(default_factory=Overlays)
     render_scale: float = 1.0
+    clean_video: bool = False         # exports render the batsman and the ball without the editing aids
     antialias: bool = False           # FXAA over the moving things (~3 ms on llvmpipe); the static scene is
                                       # multisampled whenever the camera holds still (app.submit)
     # capture requests, consumed by the loop

@@ -117,6 +117,7 @@ class AppState:
     # what the panel's capture section says
     last_capture: str = ""                            # the last screenshot or export written
     last_export: ExportNote | None = None             # how the last export went
+    export_progress: float | None = None              # the export under way, 0..1 (None: none runs)
     session_line: str = ""                            # where the session autosaves (app.session)
 
     @property
