@@ -107,8 +107,21 @@ def test_clean_render_turns_the_editing_aids_off_and_restores_them():
         with capture.clean_render(o):
             assert o.ghost == "off" and not any(getattr(o, n) for n in capture.CLEAN_OFF)
             assert o.ball and o.pitch                                   # the scene itself stays
+            assert not o.target                                         # nor the disc the user drags
             raise KeyError("mid-export failure")
     assert vars(o) == before
+
+
+def test_a_clean_render_draws_no_target():
+    from app.render.submit import build_scene_view
+    from app.viewer.camera import OrbitCamera
+    from app.viewer.settings import ViewerSettings
+    from app.viewer.state import AppState
+    settings, state = ViewerSettings(), AppState()
+    args = (state, settings, OrbitCamera(), (320, 240))
+    assert build_scene_view(*args).target_position is not None
+    with capture.clean_render(settings.overlays):
+        assert build_scene_view(*args).target_position is None
 
 
 def test_the_panel_draws_the_export_progress_bar():

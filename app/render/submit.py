@@ -40,7 +40,7 @@ def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCam
     view.show_pitch = o.pitch
     view.antialias = bool(settings.antialias)
     view.camera_moving = state.camera_still_s < CAMERA_SETTLE_S
-    view.target_position = np.asarray(settings.target, np.float32)
+    view.target_position = np.asarray(settings.target, np.float32) if o.target else None
     view.target_normal = TARGET_NORMAL
     view.target_highlight = bool(state.hover_target or state.dragging_target)
     if state.source_pose is not None and o.ghost == "mesh":

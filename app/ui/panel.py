@@ -195,7 +195,7 @@ def _overlay_section(settings: ViewerSettings) -> None:
             o.ghost = mode
     items = [("hit_points", "FK hit points"), ("ball_path", "ball path"), ("desired_point", "desired hit point"),
              ("bat_path", "bat path"), ("source_bat_path", "source bat path"), ("flight", "ball flight"),
-             ("ball", "ball"), ("skeleton", "adapted skeleton"), ("pitch", "pitch")]
+             ("ball", "ball"), ("target", "target"), ("skeleton", "adapted skeleton"), ("pitch", "pitch")]
     for i, (name, label) in enumerate(items):
         if i % 2:
             imgui.same_line(175)

@@ -343,7 +343,8 @@ class ExportJob:
 
 # Overlays a clean render turns off: the editing aids (ghost, lines, crosses, paths);
 # the batsman, the ball and the ground stay.
-CLEAN_OFF = ("skeleton", "hit_points", "ball_path", "desired_point", "bat_path", "source_bat_path", "flight")
+CLEAN_OFF = ("skeleton", "hit_points", "ball_path", "desired_point", "bat_path", "source_bat_path", "flight",
+             "target")
 
 
 @contextlib.contextmanager

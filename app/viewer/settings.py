@@ -44,6 +44,7 @@ class Overlays:
     source_bat_path: bool = True
     flight: bool = True             # ball after impact
     ball: bool = True
+    target: bool = True             # the red-and-white target disc (what the user drags)
     pitch: bool = True
 
 
