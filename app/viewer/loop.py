@@ -11,14 +11,12 @@ from __future__ import annotations
 import gc
 import time
 from collections import deque
-from contextlib import nullcontext
-from pathlib import Path
 
 import moderngl
 import numpy as np
 from imgui_bundle import imgui, implot
 
-from app.viewer import capture, playback
+from app.viewer import playback
 from app.viewer.camera import OrbitCamera
 from app.render.compose import BACKGROUND, Compositor
 from app.ui.imgui_gl import ImguiRenderer
@@ -28,18 +26,14 @@ from app.viewer.pcpad import PadRequest
 from app.render.gl import flush
 from app.render.scene import SceneRenderer
 from app.viewer.settings import ViewerSettings
-from app.viewer.state import AppState, ExportNote
+from app.viewer.outputs import Outputs
+from app.viewer.state import AppState
 from app.viewer.stats import FrameStats
 from app.render.submit import build_scene_view
 from app.ui.timeline import TIMELINE_HEIGHT, draw_timeline
-from app.viewer.update import ball_at, default_target, load_library, pose_at, update
+from app.viewer.update import default_target, load_library, update
 from app.viewer.warmup import EngineWarmup
 from app.render.window import open_window
-from engine.export import shot_takes
-from engine.skeleton import Clip
-
-EXPORT_BUDGET_S = 0.02     # export rendering per viewer frame: the window stays responsive
-
 
 def layout(window_size: tuple[int, int]) -> dict[str, tuple]:
     """Rectangles ``(x, y, w, h)`` in window pixels (top-left origin): the panel
@@ -95,9 +89,8 @@ class App:
         self._camera_key = self.camera.view().tobytes()   # the camera starts still
         self._last_time = time.perf_counter()
         self._frame_stamps: deque = deque()
-        self._pending_screenshots: list[Path] = []
-        self._pending_exports: list[Path] = []
-        self._export = None          # (capture.ExportJob, framebuffer, folder, claimed) while one runs
+        self.outputs = Outputs(self.ctx, self.state, self.settings, lambda fbo: self.render_scene(fbo),
+                               lambda: self.compositor.frame, lambda: self.compositor.viewport_px)
         # The ~150k objects made while starting (numba, imgui, the library) live as long as
         # the window: frozen, a full garbage collection no longer walks them, which froze a
         # drag for ~120 ms every few hundred frames.
@@ -199,7 +192,7 @@ class App:
             self._ui_generation = comp.frame_generation
         self.gui.render(imgui.get_draw_data(), comp.frame, keep=(rects["panel"], rects["timeline"]))
         comp.damage.add(self.gui.drawn_rects)
-        self._captures()
+        self.outputs.step()
         flush()
         self._in_flight = True
         return t_wait, t_render
@@ -288,108 +281,17 @@ class App:
         self.settings.frame = float(np.clip(frame, 0, self.state.num_frames - 1))
 
     def request_screenshot(self, path=None) -> None:
-        """Screenshot to ``path``, or (None: F12) to a new time-stamped name claimed when written."""
-        self._pending_screenshots.append(Path(path) if path else None)
+        self.outputs.screenshot(path)
 
     def request_export(self, out_dir=None, formats=None) -> None:
-        """Export into the new folder ``out_dir``, or (None) a new time-stamped one; ``formats``
-        as ``capture.check_formats`` returns them (None: the default ones)."""
-        self._pending_exports.append((Path(out_dir) if out_dir else None, formats))
+        self.outputs.export(out_dir, formats)
 
     def screenshot(self) -> np.ndarray:
         """The last composed frame ``(h, w, 3)`` uint8."""
-        return capture.read_rgb(self.compositor.frame)
-
-    def _captures(self) -> None:
-        if self.settings.screenshot_requested:
-            self.settings.screenshot_requested = False
-            self.request_screenshot()
-        if self.settings.export_requested:
-            self.settings.export_requested = False
-            self.request_export()
-        while self._pending_screenshots:
-            path = self._pending_screenshots.pop(0)
-            try:
-                image = self.screenshot()
-                written = capture.write_new_png(image) if path is None else capture.write_png(path, image)
-                self.state.last_capture = str(written)
-            except Exception as e:
-                self.state.report(f"screenshot: {type(e).__name__}: {e}")
-        if self._export is None and self._pending_exports:
-            self._start_export(*self._pending_exports.pop(0))
-        if self._export is not None:
-            self._step_export(EXPORT_BUDGET_S)
-
-    def _start_export(self, out, formats) -> None:
-        """An export job for the adapted shot (the source shot when nothing is adapted): the
-        motion (BVH / glTF with both takes and the ball) at once, then every frame rendered
-        at the viewport's size (PNG sequence, mp4) a few at a time (``capture.ExportJob``)."""
-        state, claimed = self.state, out is None
-        try:
-            out = capture.new_export_dir() if claimed else out
-            shot, adapted = state.shot, state.adaptation
-            if shot is None:
-                raise ValueError("no shot loaded")
-            clip = shot.clip if adapted is None else Clip(adapted.root_positions, adapted.local_rotations, shot.clip.fps)
-            takes = None if adapted is None else shot_takes(state.rig, shot, clip, state.desired_hit_point,
-                                                            state.ball_start, shot.hit_point)
-            stem = shot.name if adapted is None else f"{shot.name}_adapted"
-            job = capture.ExportJob(out, state.num_frames, state.fps, shot.skeleton, clip, stem, formats, takes)
-        except Exception as e:
-            self._export_failed(out, claimed, e)
-            return
-        _, _, w, h = self.compositor.viewport_px
-        fbo = self.ctx.framebuffer([self.ctx.texture((w, h), 4)], self.ctx.depth_renderbuffer((w, h)))
-        self._export = (job, fbo, out, claimed)
-
-    def _step_export(self, budget_s: float) -> bool:
-        """Render the export's next frames for about ``budget_s`` (the pose on screen is put
-        back after); True when no export runs any more."""
-        job, fbo, out, claimed = self._export
-        state, keep = self.state, self.settings.frame
-
-        def render(f: int):
-            pose_at(state, float(f))
-            ball_at(state, float(f))
-            with capture.clean_render(self.settings.overlays) if self.settings.clean_video else nullcontext():
-                self.render_scene(fbo)
-            return capture.read_rgb(fbo)
-        try:
-            done = job.step(render, budget_s)
-        except Exception as e:
-            self._end_export()
-            self._export_failed(out, claimed, e)
-            return True
-        finally:
-            pose_at(state, keep)
-            ball_at(state, keep)
-        state.export_progress = job.progress
-        if done:
-            self._end_export()
-            state.last_capture = str(out)
-            state.last_export = ExportNote(True, capture.describe_export(Path(out)))
-        return done
-
-    def _end_export(self) -> None:
-        _, fbo, _, _ = self._export
-        for a in (*fbo.color_attachments, fbo.depth_attachment):
-            a.release()
-        fbo.release()
-        self._export, self.state.export_progress = None, None
-
-    def _export_failed(self, out, claimed: bool, e: Exception) -> None:
-        if claimed and out is not None:
-            capture.release(out)
-        self.state.report(f"export: {type(e).__name__}: {e}")
-        self.state.last_export = ExportNote(False, f"export to {out} failed: {e}")
+        return self.outputs.read_frame()
 
     def finish_exports(self) -> None:
-        """Run the export under way and the queued ones to the end (at exit, scripted runs)."""
-        while self._export is not None or self._pending_exports:
-            if self._export is None:
-                self._start_export(*self._pending_exports.pop(0))
-            else:
-                self._step_export(1.0)
+        self.outputs.finish()
 
     # -- loops ------------------------------------------------------------------
     def run(self) -> None:
