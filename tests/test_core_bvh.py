@@ -77,7 +77,6 @@ def test_round_trip_bundled_rig(tmp_path, rig):
     assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
 
 
-@pytest.mark.skipif(not GOLF.exists(), reason="shared mocap not present")
 def test_round_trip_foreign_cmu_file(tmp_path):
     skel, clip = bvh.read(GOLF)
     assert skel.num_joints == 31 and clip.num_frames == 494

@@ -373,7 +373,6 @@ def test_two_hundred_megabytes_of_junk_fail_at_the_first_bad_token():
         del junk
 
 
-@pytest.mark.skipif(not MOCAP.exists(), reason="shared mocap not present")
 def test_mocap_files_read_identically_in_small_chunks(monkeypatch):
     for path in sorted(MOCAP.glob("*.bvh")):
         whole = bvh.read(path)

@@ -154,8 +154,7 @@ def test_real_mocap_golf_swing():
     from conftest import MOCAP
     from engine import bvh
     path = MOCAP / "cmu_63_02_golf_swing.bvh"
-    if not path.exists():
-        pytest.skip("shared mocap not available")
+    assert path.exists(), f"the shared CMU capture is missing: {path}"
     skel, c = bvh.read(path)
     root, rot = c.root_positions[1::4], c.local_rotations[1::4]     # skip the added T-pose; 30 fps
     p = pcam.fit(root, rot)
@@ -170,8 +169,7 @@ def test_real_mocap_golf_swing():
 def _bundled_shots(rig):
     from engine.library import load_library
     from engine.rig import assets_dir
-    if not (assets_dir() / "shots" / "library.json").exists():
-        pytest.skip("shot library not bundled yet")
+    assert (assets_dir() / "shots" / "library.json").exists(), "the bundled shot library is missing"
     return load_library(rig=rig)
 
 

@@ -98,7 +98,6 @@ def test_bad_input_one_line_exit_2(args, tmp_path):
 
 
 def test_cmu_walk_two_fold_learnt_beats_ccd(tmp_path):
-    pytest.importorskip("engine.capture")
     walk = MOCAP / "cmu_02_01_walk.bvh"
     res = {}
     for method in ("learnt", "ccd"):
