@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from app.viewer import script as sc
 from app.errors import UserError
+from app.viewer.requests import Requests
 from app.viewer.settings import (SETTING_CHOICES, SETTING_RANGES, ViewerSettings, check_setting, setting_kinds)
 from conftest import ROOT
 
@@ -43,7 +44,7 @@ class FakeInteraction:
 
 class FakeApp:
     def __init__(self):
-        self.settings, self.interaction, self.pad_requests = ViewerSettings(), FakeInteraction(), []
+        self.settings, self.interaction, self.requests = ViewerSettings(), FakeInteraction(), Requests()
 
     def scrub(self, frame):
         assert math.isfinite(frame)

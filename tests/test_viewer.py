@@ -234,7 +234,7 @@ def test_bad_library_file_is_reported_not_fatal(app, tmp_path):
     assert "library" in app.state.messages[-1][1]
     run(app, 1)
     assert app.state.status["library"] == "ok"
-    app.settings.reload_requested = True          # the panel's "Reload shots" button
+    app.requests.reload = True                    # the panel's "Reload shots" button
     run(app, 1)
     assert app.state.shots is not shots and len(app.state.shots) == len(shots)
     assert app.state.adaptation is not None
@@ -433,3 +433,16 @@ def test_the_first_solve_is_solved_again_for_the_readout():
     assert state.solve_count == 2 and state.adaptation is not None
     update(state, settings, 1 / 60)
     assert state.solve_count == 2 and state.errors == 0
+
+
+def test_f12_is_a_request_taken_once_not_a_setting(app, tmp_path, monkeypatch):
+    """F12 asks for one screenshot: the loop takes the request in that frame (one new PNG in
+    the working folder), nothing of it is left in the settings or for the next frame."""
+    import dataclasses
+    import glfw
+    monkeypatch.chdir(tmp_path)
+    app.interaction.key(glfw.KEY_F12, True, 0)
+    assert app.requests.screenshot
+    run(app, 2)
+    assert len(list(tmp_path.glob("*.png"))) == 1 and not app.requests.screenshot
+    assert all("request" not in f.name for f in dataclasses.fields(app.settings))

@@ -1,5 +1,5 @@
-"""The docked panel on the right (ImGui). It writes only to the settings; the
-state is read for readouts. Top to bottom: shot and solver settings (falloff
+"""The docked panel on the right (ImGui). It writes only to the settings and the
+requests (``app.viewer.requests``: captures, reload, the PC pad's); the state is read for readouts. Top to bottom: shot and solver settings (falloff
 first), playback, overlays, readouts, the blend plot, the PC pad, messages."""
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from app.viewer.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERA
                           SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TWISTS, ViewerSettings)
 from app.ui.wagonwheel import draw_wagon_wheel
 from app.ui.padwidget import draw_pc_pad
+from app.viewer.requests import Requests
 from app.viewer.state import AppState
 
 PANEL_WIDTH = 360
@@ -25,9 +26,9 @@ RED = imgui.ImVec4(0.95, 0.25, 0.2, 1.0)
 COMPILING_COLOR = imgui.ImVec4(1.0, 0.8, 0.3, 1.0)
 
 
-def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, pad_requests: list) -> None:
-    """The panel window at ``rect = (x, y, w, h)``; what the user asks of the PC pad is
-    appended to ``pad_requests`` (the update carries it out)."""
+def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, requests: Requests) -> None:
+    """The panel window at ``rect = (x, y, w, h)``; one-off actions (captures, a reload, what
+    the user asks of the PC pad) go to ``requests`` (the loop hands them on)."""
     x, y, w, h = rect
     imgui.set_next_window_pos(imgui.ImVec2(x, y))
     imgui.set_next_window_size(imgui.ImVec2(w, h))
@@ -37,10 +38,10 @@ def draw_panel(settings: ViewerSettings, state: AppState, rect: tuple, pad_reque
         _settings_section(settings, state)
         _readouts_section(settings, state)
         _blend_plot(settings, state)
-        _pc_pad(state, pad_requests)
+        _pc_pad(state, requests.pad)
         _playback_section(settings, state)
         _overlay_section(settings)
-        _capture_section(settings, state)
+        _capture_section(settings, state, requests)
     finally:
         imgui.end()
 
@@ -295,14 +296,14 @@ def _pc_pad(state: AppState, pad_requests: list) -> None:
         draw_pc_pad(state, pad_requests)
 
 
-def _capture_section(settings: ViewerSettings, state: AppState) -> None:
+def _capture_section(settings: ViewerSettings, state: AppState, requests: Requests) -> None:
     if not imgui.collapsing_header("Capture", imgui.TreeNodeFlags_.default_open):
         return
     if imgui.button("Screenshot (F12)"):
-        settings.screenshot_requested = True
+        requests.screenshot = True
     imgui.same_line()
     if imgui.button("Export shot"):
-        settings.export_requested = True
+        requests.export = True
     if imgui.is_item_hovered():
         imgui.set_tooltip("A new folder in the working directory: the adapted shot as\n"
                           "mp4 + PNG frames (viewport size), BVH and glTF (.glb, metres)")
@@ -313,7 +314,7 @@ def _capture_section(settings: ViewerSettings, state: AppState) -> None:
     if imgui.is_item_hovered():
         imgui.set_tooltip("the export's video without the editing aids (ghost, paths, crosses)")
     if imgui.button("Reload shot library"):
-        settings.reload_requested = True
+        requests.reload = True
     _export_progress(state)
     _last_capture(state)
     if state.session_line:            # where the session autosaves (app.session)

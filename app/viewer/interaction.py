@@ -15,6 +15,7 @@ from imgui_bundle import imgui
 
 from app.viewer import picking
 from app.viewer.camera import OrbitCamera
+from app.viewer.requests import Requests
 from app.viewer.settings import SPEED_RANGE, ViewerSettings
 from app.viewer.state import AppState
 
@@ -38,8 +39,10 @@ class Gesture:
 
 
 class Interaction:
-    def __init__(self, settings: ViewerSettings, state: AppState, camera: OrbitCamera, imgui_io=None):
+    def __init__(self, settings: ViewerSettings, state: AppState, camera: OrbitCamera, imgui_io=None,
+                 requests: Requests | None = None):
         self.settings, self.state, self.camera = settings, state, camera
+        self.requests = Requests() if requests is None else requests     # F12 asks here
         self.io = imgui_io            # None: no ImGui (tests of the scene logic)
         self.mouse = np.array([-1.0, -1.0])
         self.shift = False
@@ -160,7 +163,7 @@ class Interaction:
         elif key == glfw.KEY_RIGHT_BRACKET:
             s.speed = float(np.clip(s.speed * 1.25, *SPEED_RANGE))
         elif key == glfw.KEY_F12:
-            s.screenshot_requested = True
+            self.requests.screenshot = True
         elif key == glfw.KEY_R:
             self.camera.reset()
         elif key == glfw.KEY_HOME:

@@ -22,11 +22,11 @@ from app.render.compose import BACKGROUND, Compositor
 from app.ui.imgui_gl import ImguiRenderer
 from app.viewer.interaction import Interaction
 from app.ui.panel import PANEL_WIDTH, draw_panel
-from app.viewer.pcpad import PadRequest
 from app.render.gl import flush
 from app.render.scene import SceneRenderer
 from app.viewer.settings import ViewerSettings
 from app.viewer.outputs import Outputs
+from app.viewer.requests import Requests
 from app.viewer.state import AppState
 from app.viewer.stats import FrameStats
 from app.render.submit import build_scene_view
@@ -67,8 +67,8 @@ class App:
         io.display_size = imgui.ImVec2(*self.window.size)
         self.gui = ImguiRenderer(self.ctx)
         self.settings, self.state, self.camera = ViewerSettings(), AppState(), OrbitCamera()
-        self.interaction = Interaction(self.settings, self.state, self.camera, io)
-        self.pad_requests: list[PadRequest] = []     # asked this frame (widget, scripts), done by the update
+        self.requests = Requests()      # one-off actions asked this frame (panel, keys, scripts)
+        self.interaction = Interaction(self.settings, self.state, self.camera, io, self.requests)
         self._install_callbacks()
         if load_library(self.state, manifest):
             self.settings.target = default_target(self.state)
@@ -143,12 +143,15 @@ class App:
         rects = layout(self.window.size)
         self._draw_ui(rects, dt)
         t_ui = time.perf_counter()
-        if self.settings.reload_requested:
-            self.settings.reload_requested = False
+        asked = self.requests.take()
+        if asked.reload:
             load_library(self.state, self.manifest)
+        if asked.screenshot:
+            self.outputs.screenshot()
+        if asked.export:
+            self.outputs.export()
         playback.step(self.settings, self.state, dt)
-        requests, self.pad_requests = self.pad_requests, []
-        update(self.state, self.settings, dt, requests)
+        update(self.state, self.settings, dt, asked.pad)
         self._track_camera(dt)
         if self.session is not None:
             self.session.tick(self.settings, self.state, self.camera)
@@ -166,7 +169,7 @@ class App:
         io.display_size = imgui.ImVec2(*self.window.size)
         io.delta_time = max(float(dt), 1e-4)
         imgui.new_frame()
-        draw_panel(self.settings, self.state, rects["panel"], self.pad_requests)
+        draw_panel(self.settings, self.state, rects["panel"], self.requests)
         draw_timeline(self.settings, self.state, rects["timeline"])
         imgui.render()
 

@@ -43,13 +43,7 @@ class Outputs:
         return capture.read_rgb(self._frame())
 
     def step(self) -> None:
-        """After the frame's render: the asked screenshots, then about EXPORT_BUDGET_S of export."""
-        if self.settings.screenshot_requested:
-            self.settings.screenshot_requested = False
-            self.screenshot()
-        if self.settings.export_requested:
-            self.settings.export_requested = False
-            self.export()
+        """After the frame's render: the queued screenshots, then about EXPORT_BUDGET_S of export."""
         while self._screenshots:
             path = self._screenshots.pop(0)
             try:

@@ -258,7 +258,7 @@ class ScriptPlayer:
         self._ask(f, check_request(e["action"], e.get("value")))
 
     def _ask(self, f, request: PadRequest) -> None:
-        self._at(f, lambda app: app.pad_requests.append(request))
+        self._at(f, lambda app: app.requests.pad.append(request))
 
     def _ev_screenshot(self, f, e):
         path = _text(e["path"], "path", MAX_PATH_CHARS)

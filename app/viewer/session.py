@@ -58,8 +58,6 @@ CAMERA_PIVOT_CM = 3000.0        # as OrbitCamera.pan clamps it
 CAMERA_DISTANCE_CM = (60.0, 5000.0)
 CAMERA_PITCH_DEG = (-5.0, 89.0)
 NAMES_IN_MESSAGE = 5            # invalid fields named in the panel line
-# requests the loop consumes: never part of a session
-_NOT_SAVED = {"screenshot_requested", "export_requested", "reload_requested"}
 _PAD_OPTIONS = {"mode": ("pose", "draw"), "loop": bool, "fix_hand": bool, "plant_feet": bool}
 
 
@@ -89,8 +87,6 @@ def _settings_data(settings) -> dict:
     out = {}
     for f in dataclasses.fields(settings):
         value = getattr(settings, f.name)
-        if f.name in _NOT_SAVED:
-            continue
         if f.name == "overlays":
             value = dataclasses.asdict(value)
         elif isinstance(value, np.ndarray):
@@ -192,7 +188,7 @@ def _vector(value, n: int, name: str, limit: float) -> np.ndarray:
 def _apply_fields(obj, data: dict, prefix: str, dropped: list, skip=()) -> None:
     """Each known, well-typed field of ``data`` onto the dataclass ``obj``."""
     for f in dataclasses.fields(obj):
-        if f.name not in data or f.name in skip or f.name in _NOT_SAVED:
+        if f.name not in data or f.name in skip:
             continue
         try:
             setattr(obj, f.name, _like(getattr(obj, f.name), data[f.name], prefix + f.name))

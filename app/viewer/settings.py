@@ -28,9 +28,9 @@ SETTING_RANGES = {"falloff": FALLOFF_RANGE, "iterations": ITERATIONS_RANGE, "tol
                   "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING),
                   "direction": (-180.0, 180.0)}
 SETTING_CHOICES = {"solver": SOLVERS, "twist": TWISTS, "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
-# Fields that are no setting of the user's: requests the loop consumes (scripts have the
-# screenshot, export and key events for them) and the overlay group as a whole.
-NOT_SETTABLE = ("screenshot_requested", "export_requested", "reload_requested", "overlays")
+# The overlay group is set field by field (``overlays.NAME``), never as a whole. One-off
+# actions (screenshot, export, reload) are no settings: ``app.viewer.requests``.
+NOT_SETTABLE = ("overlays",)
 
 
 @dataclass
@@ -75,10 +75,6 @@ class ViewerSettings:
     clean_video: bool = False         # exports render the batsman and the ball without the editing aids
     antialias: bool = False           # FXAA over the moving things (~3 ms on llvmpipe); the static scene is
                                       # multisampled whenever the camera holds still (app.submit)
-    # capture requests, consumed by the loop
-    screenshot_requested: bool = False
-    export_requested: bool = False
-    reload_requested: bool = False    # re-read the shot library (a bad file keeps the old one)
 
     def sanitise(self) -> None:
         """Clamp everything into range (scripts and sliders can send anything)."""
@@ -130,8 +126,7 @@ class ViewerSettings:
 @functools.cache
 def setting_kinds() -> dict[str, str]:
     """``{key: type name}`` of every setting ``set`` accepts: the dataclass fields of
-    ViewerSettings and (as ``overlays.NAME``) Overlays, but no method, private or
-    request field. The type names are the fields' annotations."""
+    ViewerSettings and (as ``overlays.NAME``) Overlays, but no method or private field. The type names are the fields' annotations."""
     kinds = {f.name: str(f.type) for f in fields(ViewerSettings) if f.name not in NOT_SETTABLE}
     kinds.update({f"overlays.{f.name}": str(f.type) for f in fields(Overlays)})
     return {k: t for k, t in kinds.items() if not k.rsplit(".", 1)[-1].startswith("_")}
