@@ -22,8 +22,9 @@ import numpy as np
 from numba import njit
 
 from . import quat
-from .ccd import KIND_MULTI, KIND_NONE, ChainArrays, ccd_frame, chain_arrays, chain_fk, chain_scratch, hinge_axis, limit_euler
-from .quat_nb import q_at, q_put, v_at, v_put, cross, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
+from .ccd import ITERATIONS, KIND_MULTI, KIND_NONE, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, chain_scratch, hinge_axis, limit_euler
+from .fk_nb import chain_fk, tree_fk
+from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations
 
@@ -46,8 +47,8 @@ class AdaptSettings:
     falloff: float = 90.0        # cm
     wrist_dof: int = 0           # 0 (locked, default) or 2
     solver: str = "ccd"          # "ccd" | "dls"
-    iterations: int = 200
-    tolerance: float = 0.001     # cm
+    iterations: int = ITERATIONS
+    tolerance: float = TOLERANCE     # cm
     fix_right_hand: bool = True
     # CCD only. "follow": the left arm's twist-only (roll) joints keep the source's twist
     # and the swing joints reach the ball; "lead": CCD turns them too, which spins the bat
@@ -107,7 +108,7 @@ def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, k
             else:
                 c = kd - 1
                 axis = hinge_axis(prot, g_rot, euler, k, c)
-                du = dot3(u, axis)
+                du = dot(u, axis)
                 if vnorm((u[0] - du * axis[0], u[1] - du * axis[1], u[2] - du * axis[2])) > 1e-6:
                     break
                 # twist of the remaining error about the hinge axis
@@ -174,26 +175,7 @@ def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, da
             for i in range(6):
                 for j in range(6):
                     A[i, j] += cols[q, i] * cols[q, j]
-        # Cholesky solve A x = r (A is symmetric positive definite)
-        for i in range(6):
-            for j in range(i + 1):
-                t = A[i, j]
-                for k2 in range(j):
-                    t -= A[i, k2] * A[j, k2]
-                if i == j:
-                    A[i, i] = math.sqrt(max(t, 1e-300))
-                else:
-                    A[i, j] = t / A[j, j]
-        for i in range(6):
-            t = r[i]
-            for k2 in range(i):
-                t -= A[i, k2] * x[k2]
-            x[i] = t / A[i, i]
-        for i in range(5, -1, -1):
-            t = x[i]
-            for k2 in range(i + 1, 6):
-                t -= A[k2, i] * x[k2]
-            x[i] = t / A[i, i]
+        _solve_spd(A, r, x, 6)
         biggest = 0.0
         for q in range(m):
             if dofs[q, 0] >= 0:
@@ -492,32 +474,6 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
 
 
 @njit(cache=True)
-def dot3(u, v):
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-
-
-@njit(cache=True)
-def _fk_subtree(i, f, parents, trans, subtree, out_local, out_grot, out_gpos):
-    """Recompute globals of frame slot i for the joints in subtree (parents first)."""
-    for j in range(parents.shape[0]):
-        if not subtree[j]:
-            continue
-        p = parents[j]
-        pr = (out_grot[i, p, 0], out_grot[i, p, 1], out_grot[i, p, 2], out_grot[i, p, 3])
-        pp = (out_gpos[i, p, 0], out_gpos[i, p, 1], out_gpos[i, p, 2])
-        t = (trans[f, j, 0], trans[f, j, 1], trans[f, j, 2])
-        g = qmul(pr, (out_local[i, j, 0], out_local[i, j, 1], out_local[i, j, 2], out_local[i, j, 3]))
-        pos = vadd(pp, qrot(pr, t))
-        out_grot[i, j, 0] = g[0]
-        out_grot[i, j, 1] = g[1]
-        out_grot[i, j, 2] = g[2]
-        out_grot[i, j, 3] = g[3]
-        out_gpos[i, j, 0] = pos[0]
-        out_gpos[i, j, 1] = pos[1]
-        out_gpos[i, j, 2] = pos[2]
-
-
-@njit(cache=True)
 def _effective_limits(lo, hi, src, out_lo, out_hi):
     """The rig's limits widened to take in the source angle: a source frame
     outside its limits may stay where it is or move back in, never further out
@@ -598,7 +554,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
             for k in range(nl):
                 for c in range(4):
                     out_local[i, lj[k], c] = loc_l[k, c]
-            _fk_subtree(i, f, parents, trans, subtree_l, out_local, out_grot, out_gpos)
+            tree_fk(parents, trans[f], out_local[i], subtree_l, out_grot[i], out_gpos[i])
         bpos = (out_gpos[i, bat, 0], out_gpos[i, bat, 1], out_gpos[i, bat, 2])
         out_err[i] = vnorm(vsub(bpos, handle))
         # right hand back on its source grip relative to the left hand
@@ -669,7 +625,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                 for k in range(nr):
                     for c in range(4):
                         out_local[i, rj[k], c] = loc_r[k, c]
-                _fk_subtree(i, f, parents, trans, subtree_l, out_local, out_grot, out_gpos)
+                tree_fk(parents, trans[f], out_local[i], subtree_l, out_grot[i], out_gpos[i])
                 bpos = (out_gpos[i, bat, 0], out_gpos[i, bat, 1], out_gpos[i, bat, 2])
                 out_err[i] = vnorm(vsub(bpos, handle))
                 g_lh = (out_grot[i, lhand, 0], out_grot[i, lhand, 1], out_grot[i, lhand, 2],

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .fk_nb import chain_fk
 from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx, clamp_angle, other_branch, outside, pick_branch, q_at, v_at, q_put, v_put)
 
 
@@ -35,22 +36,6 @@ TOLERANCE = 0.001      # cm
 ITERATIONS = 200
 _STALL = 1e-7          # cm per sweep: slower progress than this means "as close as it gets"
 _STALL_REL = 0.0       # share of the error a sweep must gain (0: only _STALL; CCD may crawl near limits yet arrive)
-
-
-@njit(cache=True)
-def chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos):
-    """Globals of the chain joints into g_rot (n,4), g_pos (n,3); returns the effector.
-
-    prot, ppos: global rotation / position of the chain root's parent.
-    """
-    r = prot
-    p = ppos
-    for k in range(offsets.shape[0]):
-        p = vadd(p, qrot(r, v_at(offsets, k)))
-        r = qmul(r, q_at(local, k))
-        q_put(g_rot, k, r)
-        v_put(g_pos, k, p)
-    return vadd(p, qrot(r, (eff_off[0], eff_off[1], eff_off[2])))
 
 
 @njit(cache=True)

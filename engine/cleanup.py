@@ -216,7 +216,8 @@ from numba import njit
 
 from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, ORIENT_TOL, \
     both_arms_solve, grip_solve, orient_finish
-from .ccd import ccd_frame, chain_arrays, chain_fk, chain_scratch, limit_euler
+from .ccd import ccd_frame, chain_arrays, chain_scratch, limit_euler
+from .fk_nb import chain_fk, frames_fk
 from .quat_nb import q_at, q_put, v_at, clamp_angle, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
@@ -224,25 +225,6 @@ BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when cho
 TURN_COST = 0.005               # ... and a degree of the bat turning
 WARM_ITER = 80                  # Newton steps from the previous frame's right arm
 
-
-@njit(cache=True)
-def _fk_frames(parents, trans, local, out_rot, out_pos):
-    """Global rotations/positions of every frame (parents before children)."""
-    for f in range(local.shape[0]):
-        for j in range(parents.shape[0]):
-            p = parents[j]
-            q = (local[f, j, 0], local[f, j, 1], local[f, j, 2], local[f, j, 3])
-            t = (trans[f, j, 0], trans[f, j, 1], trans[f, j, 2])
-            if p < 0:
-                g, x = q, t
-            else:
-                pr = (out_rot[f, p, 0], out_rot[f, p, 1], out_rot[f, p, 2], out_rot[f, p, 3])
-                g = qmul(pr, q)
-                x = vadd((out_pos[f, p, 0], out_pos[f, p, 1], out_pos[f, p, 2]), qrot(pr, t))
-            for c in range(4):
-                out_rot[f, j, c] = g[c]
-            for c in range(3):
-                out_pos[f, j, c] = x[c]
 
 @njit(cache=True)
 def _leg_frames(local, euler, parent_rot, parent_pos, sel, lj, off, eoff, free, kind, lo, hi, w,
@@ -566,8 +548,8 @@ def _fk(skeleton: Skeleton, clip: Clip) -> tuple[np.ndarray, np.ndarray]:
         return clip_fk(skeleton, clip)
     F, J = clip.num_frames, len(parents)
     g_rot, g_pos = np.empty((F, J, 4)), np.empty((F, J, 3))
-    _fk_frames(parents, np.ascontiguousarray(local_translations(skeleton, clip), float),
-               np.ascontiguousarray(clip.local_rotations, float), g_rot, g_pos)
+    frames_fk(parents, np.ascontiguousarray(local_translations(skeleton, clip), float),
+              np.ascontiguousarray(clip.local_rotations, float), np.ones(J, np.bool_), g_rot, g_pos)
     return g_rot, g_pos
 
 

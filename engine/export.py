@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from . import bvh, quat
+from .gltf_export import EXTENSIONS as GLTF_EXTENSIONS
 from .skeleton import Clip, Skeleton
 
-EXTENSIONS = (".bvh", ".csv", ".glb", ".gltf")
+EXTENSIONS = (".bvh", ".csv") + GLTF_EXTENSIONS
 
 
 def write_take(out: str | Path, skeleton: Skeleton, clip: Clip, *, name: str, limits: np.ndarray | None = None,

@@ -32,7 +32,8 @@ from numba import njit
 from scipy.cluster.vq import kmeans2, vq
 
 from . import quat
-from .quat_nb import qmul, qrot
+from .fk_nb import tree_fk
+from .skeleton import forward_kinematics
 
 
 @dataclass(frozen=True)
@@ -111,16 +112,14 @@ def body_limb(skeleton, effectors, name: str = "body") -> Limb:
 def limb_fk(limb: Limb, local_rotations: np.ndarray) -> np.ndarray:
     """Positions ``(..., n, 3)`` cm of the limb's joints relative to its root joint,
     in the root's parent frame, from ``local_rotations (..., n, 4)``."""
-    q = np.asarray(local_rotations, float)
-    g_rot = np.empty_like(q)
-    g_pos = np.zeros(q.shape[:-1] + (3,))
-    for k, p in enumerate(limb.local_parents):
-        if p < 0:
-            g_rot[..., k, :] = q[..., k, :]
-        else:
-            g_rot[..., k, :] = quat.mul(g_rot[..., p, :], q[..., k, :])
-            g_pos[..., k, :] = g_pos[..., p, :] + quat.rotate(g_rot[..., p, :], limb.offsets[k])
-    return g_pos
+    return forward_kinematics(limb.local_parents, _root_at_origin(limb), np.asarray(local_rotations, float))[1]
+
+
+def _root_at_origin(limb: Limb) -> np.ndarray:
+    """The limb's offsets ``(n, 3)`` with its root's zeroed (positions relative to the root)."""
+    t = limb.offsets.astype(float)
+    t[limb.local_parents < 0] = 0.0
+    return t
 
 
 def constraints(limb: Limb, global_rotations: np.ndarray, global_positions: np.ndarray,
@@ -290,8 +289,8 @@ def _choose(x, prev_pos, has_prev, p_mu, p_half, a_start, a_eff, a_pos, G, F):
 
 
 @njit(cache=True)
-def _smooth_fk(mu, prev_q, has_prev, A, B, lparents, offsets, out_q, out_pos, g_rot):
-    """Eq. 13 per joint on exponential maps, then the limb's FK into out_pos (n, 3)."""
+def _smooth(mu, prev_q, has_prev, A, B, out_q):
+    """Eq. 13 per joint on exponential maps: out_q (n, 4) from the cluster pose mu (n, 4)."""
     for m in range(mu.shape[0]):
         q = (mu[m, 0], mu[m, 1], mu[m, 2], mu[m, 3])
         if has_prev:
@@ -299,34 +298,28 @@ def _smooth_fk(mu, prev_q, has_prev, A, B, lparents, offsets, out_q, out_pos, g_
             e1 = _qlog(q)
             q = _qexp((A * e0[0] + B * e1[0], A * e0[1] + B * e1[1], A * e0[2] + B * e1[2]))
         out_q[m, 0], out_q[m, 1], out_q[m, 2], out_q[m, 3] = q
-        p = lparents[m]
-        if p < 0:
-            r, pos = q, (0.0, 0.0, 0.0)
-        else:
-            rp = (g_rot[p, 0], g_rot[p, 1], g_rot[p, 2], g_rot[p, 3])
-            r = qmul(rp, q)
-            o = qrot(rp, (offsets[m, 0], offsets[m, 1], offsets[m, 2]))
-            pos = (out_pos[p, 0] + o[0], out_pos[p, 1] + o[1], out_pos[p, 2] + o[2])
-        g_rot[m, 0], g_rot[m, 1], g_rot[m, 2], g_rot[m, 3] = r
-        out_pos[m, 0], out_pos[m, 1], out_pos[m, 2] = pos
 
 
 @njit(cache=True)
 def _lookup_frames(xs, prev_q, has_prev, p_mu, p_half, a_start, a_quat, a_eff, a_pos,
-                   lparents, offsets, G, F, A, B, out_q, out_k):
+                   lparents, offsets, weights, out_q, out_k):
     """Every frame of xs (T, 3N) in order, each one's previous the frame before it
-    (the first's: prev_q (n, 4) when has_prev)."""
+    (the first's: prev_q (n, 4) when has_prev). ``weights``: (G, F, A, B) of eqs. 11-13;
+    ``offsets (n, 3)`` with the root's zeroed (positions relative to the limb's root)."""
+    G, F, A, B = weights
     n = a_quat.shape[1]
     g_rot = np.empty((n, 4))
     pos = np.empty((n, 3))
+    every = np.ones(n, np.bool_)
     pq = prev_q.copy()
-    _smooth_fk(prev_q, prev_q, False, 0.0, 1.0, lparents, offsets, pq, pos, g_rot)   # FK of the previous pose
+    tree_fk(lparents, offsets, pq, every, g_rot, pos)       # FK of the previous pose
     pp = pos.reshape(-1).copy()
     hp = has_prev
     for t in range(xs.shape[0]):
         k = _choose(xs[t], pp, hp, p_mu, p_half, a_start, a_eff, a_pos, G, F)
         out_k[t] = k
-        _smooth_fk(a_quat[k], pq, hp, A, B, lparents, offsets, out_q[t], pos, g_rot)
+        _smooth(a_quat[k], pq, hp, A, B, out_q[t])
+        tree_fk(lparents, offsets, out_q[t], every, g_rot, pos)
         pq[:, :] = out_q[t]
         pp[:] = pos.reshape(-1)
         hp = True
@@ -349,7 +342,7 @@ def lookup(model: LimbModel, x: np.ndarray, previous: np.ndarray | None = None) 
     chosen = np.empty(len(x), np.int64)
     _lookup_frames(x, prev_q, has_prev, model.p_mu, np.ascontiguousarray(s.spread * model.p_d),
                    model.a_start, model.a_quat, model.a_eff, model.a_pos, model.limb.local_parents,
-                   model.limb.offsets, float(s.G), float(s.F), float(s.A), float(s.B), out, chosen)
+                   _root_at_origin(model.limb), (float(s.G), float(s.F), float(s.A), float(s.B)), out, chosen)
     return out, chosen
 
 

@@ -29,15 +29,15 @@ from scipy.ndimage import distance_transform_edt, maximum_filter1d, uniform_filt
 
 from . import ccd, learnt_ik as L, quat
 from .cleanup import planted_frames, planted_runs
+from .profiles import SIDES
 from .skeleton import Clip, pose_fk
 
 CLEARANCE = 1.0          # cm: e, the least height of an off-ground foot's points above the terrain
-PLANT_SPEED = 50.0       # cm/s: a walking ankle rolls through its stance (cleanup's 15 is for a batsman's)
+WALK_PLANT_SPEED = 50.0  # cm/s: a walking ankle rolls through its stance (cleanup's 15 is for a batsman's)
 MIN_PLANT_SECONDS = 0.1  # a foot must stay planted this long to count as on the ground
 FADE_SECONDS = 0.15     # a planted foot's extra height eases out (and in) over this
 MAX_HEIGHT_CM = 1000.0   # terrain parameters beyond 10 m are a typo
 MAX_MAP_CELLS = 4_000_000
-SIDES = ("left", "right")
 
 
 @dataclass
@@ -261,8 +261,8 @@ def retarget(rig, shot, terrain: Terrain, e: float = CLEARANCE,
     ankles = [rig.chains[f"{side}_leg"].effector for side in SIDES]
     least = max(3, int(round(MIN_PLANT_SECONDS * shot.clip.fps)))     # shorter 'plants' are flicker
     fps = shot.clip.fps
-    runs = [planted_runs(g_pos[:, a], fps, speed_tol=PLANT_SPEED, min_frames=least) for a in ankles]
-    rest = [ankle_rest(rig, g_pos, planted_frames(g_pos[:, a], fps, speed_tol=PLANT_SPEED), side)
+    runs = [planted_runs(g_pos[:, a], fps, speed_tol=WALK_PLANT_SPEED, min_frames=least) for a in ankles]
+    rest = [ankle_rest(rig, g_pos, planted_frames(g_pos[:, a], fps, speed_tol=WALK_PLANT_SPEED), side)
             for a, side in zip(ankles, SIDES)]
     points = [foot_points(rig, g_pos, side, rest[k]) for k, side in enumerate(SIDES)]
     rise, lift, planted = foot_lifts(terrain, points, runs, e, FADE_SECONDS * fps)

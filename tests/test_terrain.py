@@ -79,7 +79,7 @@ def check_feet(tmp_path, source, spec):
     for side, (ankle_name, _) in FEET.items():
         ankle = skel.names.index(ankle_name)
         planted = np.zeros(clip.num_frames, bool)
-        for a, b in planted_runs(src[:, ankle], clip.fps, speed_tol=T.PLANT_SPEED, min_frames=12):
+        for a, b in planted_runs(src[:, ankle], clip.fps, speed_tol=T.WALK_PLANT_SPEED, min_frames=12):
             planted[a:b] = True
         assert planted.sum() > 50, side
         rest = src[planted, ankle, 1].min()
