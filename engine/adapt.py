@@ -778,14 +778,27 @@ class Adapter:
             self._chains[key] = tuple(out)
         return self._chains[key]
 
-    def _run(self, frames: np.ndarray, desired, settings: AdaptSettings):
+    def _start_pose(self, start) -> tuple[np.ndarray, np.ndarray]:
+        """Local rotations ``(F, J, 4)`` and their limit-branch Euler angles (rad) the
+        chains start from: the source, or ``start`` (engine.learnt_solver's learnt pose,
+        equal to the source wherever the blend is 0). The handles, the grip and the
+        chain roots' transforms stay the source's."""
+        if start is None:
+            return self.src_local, self.src_euler
+        start = np.ascontiguousarray(start, float)
+        if start.shape != self.src_local.shape or not np.isfinite(start).all():
+            raise ValueError(f"start pose must be finite local rotations {self.src_local.shape}")
+        return start, np.ascontiguousarray(np.radians(limit_euler(start, self.rig.limits)))
+
+    def _run(self, frames: np.ndarray, desired, settings: AdaptSettings, start=None):
         check_settings(settings)
         p = check_point(desired, "desired hit point")
         K, J = len(frames), self.parents.shape[0]
         out = (np.empty((K, J, 4)), np.empty((K, J, 4)), np.empty((K, J, 3)), np.empty(K),
                np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
+        start_local, start_euler = self._start_pose(start)
         _adapt_frames(frames, self.hit_frame, p, self._blend_for(float(settings.falloff)), self.parents, self.trans,
-                      self.src_local, self.src_grot, self.src_gpos, self.src_euler,
+                      start_local, self.src_grot, self.src_gpos, start_euler,
                       self.subtree_l, self.subtree_r, self.bat, self.lhand,
                       *self._chain_args(settings),
                       self.rel_pos, self.rel_rot, self.right_parent_in_left, bool(settings.fix_right_hand),
@@ -793,11 +806,12 @@ class Adapter:
                       DAMPING, ORIENT_TOL, *out)
         return out, p
 
-    def adapt(self, desired_hit_point, settings: AdaptSettings | None = None) -> Adaptation:
-        """The whole shot adapted so the bat joint is at ``desired_hit_point`` at the hit frame."""
+    def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None) -> Adaptation:
+        """The whole shot adapted so the bat joint is at ``desired_hit_point`` at the hit frame;
+        ``start``: the chains' start pose ``(F, J, 4)`` instead of the source's (learnt+ccd)."""
         settings = settings or AdaptSettings()
         frames = np.arange(self.num_frames, dtype=np.int64)
-        (loc, grot, gpos, blend, handles, err, gcm, gdeg), p = self._run(frames, desired_hit_point, settings)
+        (loc, grot, gpos, blend, handles, err, gcm, gdeg), p = self._run(frames, desired_hit_point, settings, start)
         h = self.hit_frame
         return Adaptation(self.trans[:, 0].copy(), loc, grot, gpos, blend, handles, p,
                           float(np.linalg.norm(gpos[h, self.bat] - p)), gcm, gdeg)

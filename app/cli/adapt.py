@@ -24,18 +24,24 @@ WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
               twist="follow", direction=None, out: Optional[Path] = None, bvh=None, profile="auto",
               hit_frame="auto", handed=None, scale=None, offset=None, library=None,
-              csv_rotations="euler") -> dict:
+              csv_rotations="euler", leave_out=False) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
-    from engine.adapt import Adapter, AdaptSettings, check_settings  # numba (0.25 s): when the command runs
+    from engine.adapt import Adapter, AdaptSettings  # numba (0.25 s): when the command runs
+    from engine.learnt_solver import LEARNT_SOLVERS, LearntSolver, check
 
     if out is not None:
         check_out(out)
     settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver, twist=twist)
-    check_settings(settings)
+    check(settings)
+    learnt = solver in LEARNT_SOLVERS
+    if leave_out and not learnt:
+        raise UserError("--leave-out goes with --solver learnt or learnt+ccd (the model's training)")
+    if learnt and direction is not None:
+        raise UserError("--direction is solved by ccd or dls, not by the learnt solvers")
     if bvh is not None:
         if target is not None or shot_name is not None or library is not None:
             raise UserError("--bvh adapts one capture: give --offset or --hit, not --target, --shot or --library")
-        return run_capture(Path(bvh), settings, profile, hit_frame, handed, scale, offset, hit, out)
+        return run_capture(Path(bvh), settings, profile, hit_frame, handed, scale, offset, hit, out, leave_out)
     if offset is not None:
         raise UserError("--offset goes with --bvh FILE (with --shot, give --hit X Y Z)")
     rig, shots = load_shots(library)
@@ -50,11 +56,12 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         shot = find_shot(shots, shot_name)
         desired = np.asarray(hit, float)
     adapter = Adapter(rig, shot)
-    adapter.adapt(desired, settings)            # compile / load the kernels before timing
+    solver_ = LearntSolver(rig, shots)
+    solver_.adapt(adapter, desired, settings, leave_out)  # compile / load the kernels, train, before timing
     t0 = time.perf_counter()
     aimed = None
     if direction is None:
-        a = adapter.adapt(desired, settings)
+        a = solver_.adapt(adapter, desired, settings, leave_out)
     else:
         from engine.direction import aim
         aimed = aim(rig, shot, desired, direction, settings)
@@ -79,6 +86,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         "max_grip_error_cm": round(float(a.grip_error_cm.max()), 4),
         "max_grip_error_deg": round(float(a.grip_error_deg.max()), 4),
         "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
+        **(learnt_summary(solver_, shot, leave_out) if learnt else {}),
         **({} if "face_normal" not in rig.bat else
            hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START, a.desired_hit_point)),
         **({} if aimed is None else {
@@ -90,11 +98,13 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     }
 
 
-def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset, hit, out) -> dict:
+def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset, hit, out,
+                leave_out=False) -> dict:
     """``adapt --bvh``: a capture on its own skeleton, moved by ``offset`` (or to ``hit``) at its
-    hit frame, written back on its own skeleton and units."""
+    hit frame, written back on its own skeleton and units (a learnt solver learns from it)."""
     from engine.adapt import Adapter
     from engine.capture import load_capture
+    from engine.learnt_solver import LEARNT_SOLVERS, LearntSolver
 
     if (offset is None) == (hit is None):
         raise UserError("--bvh needs --offset DX DY DZ or --hit X Y Z (cm), one of them")
@@ -102,8 +112,11 @@ def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset,
     source = cap.shot.hit_point
     desired = source + np.asarray(offset, float) if offset is not None else np.asarray(hit, float)
     adapter = Adapter(cap.rig, cap.shot)
+    solver = LearntSolver(cap.rig, [cap.shot])
+    if settings.solver in LEARNT_SOLVERS:     # trained and compiled before timing
+        solver.adapt(adapter, desired, settings, leave_out)
     t0 = time.perf_counter()
-    a = adapter.adapt(desired, settings)
+    a = solver.adapt(adapter, desired, settings, leave_out)
     solve_ms = (time.perf_counter() - t0) * 1e3
     if out is not None:
         cap.write(out, a.local_rotations, a.root_positions, a.blend)
@@ -123,8 +136,17 @@ def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset,
         "max_grip_error_cm": round(float(a.grip_error_cm.max()), 4),
         "max_grip_error_deg": round(float(a.grip_error_deg.max()), 4),
         "falloff": settings.falloff, "wrist_dof": settings.wrist_dof, "solver": settings.solver,
+        **(learnt_summary(solver, cap.shot, leave_out) if settings.solver in LEARNT_SOLVERS else {}),
         "solve_ms": round(solve_ms, 3), "out": None if out is None else str(out),
     }
+
+
+def learnt_summary(solver, shot, leave_out: bool) -> dict:
+    """What the learnt model was trained on (the JSON's learnt_* keys)."""
+    model = solver.model(shot.name if leave_out else None)
+    return {"leave_out": bool(leave_out),
+            "learnt_training_shots": sum(s.name != shot.name or not leave_out for s in solver.shots),
+            "learnt_clusters": int(len(model.p_mu)), "learnt_angle_clusters": int(model.angle_clusters)}
 
 
 def hit_summary(rig, shot, global_rotations, global_positions, ball_start, hit_point) -> dict:
@@ -171,7 +193,7 @@ def _write(out: Path, rig, shot, a, csv_rotations: str = "euler") -> None:
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
           "--solver": 1, "--twist": 1, "--direction": 1, "--out": 1, "--bvh": 1, "--profile": 1,
           "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1,
-          "--csv-rotations": 1}
+          "--csv-rotations": 1, "--leave-out": 0}
 CSV_ROTATIONS = ("euler", "quaternion")
 MAX_SCALE = 1e4        # cm per file unit: beyond a kilometre a unit is a mistake
 
@@ -187,6 +209,8 @@ def parse_args(args: list[str]) -> dict:
             raise UserError(f"unknown option {shorten(args[i])!r} (see hitpoint adapt --help)")
         n = _FLAGS[flag]
         vals = [inline] if inline else args[i + 1:i + 1 + n]
+        if n == 0 and inline:
+            raise UserError(f"{flag} takes no value")
         if len(vals) < n or any(v.startswith("--") for v in vals):
             raise UserError(f"{flag} needs {n} value{'s' if n > 1 else ''}")
         got[flag] = vals
@@ -207,6 +231,7 @@ def parse_args(args: list[str]) -> dict:
         out["wrist_dof"] = number("--wrist-dof", got["--wrist-dof"][0], choices=WRIST_DOFS)
     if "--solver" in got:
         out["solver"] = got["--solver"][0]
+    out["leave_out"] = "--leave-out" in got
     if "--twist" in got:
         from engine.adapt import TWISTS  # numba (0.25 s): only when the option is given
         out["twist"] = got["--twist"][0]
@@ -254,7 +279,12 @@ def register(cli: typer.Typer) -> None:
           --shot NAME --hit X Y Z   pin a shot and give the desired hit point (cm)
           --falloff CM        importance-blend falloff distance (default 90)
           --wrist-dof 0|2     left wrist locked (0, default) or 2 DOF
-          --solver ccd|dls    IK solver (default ccd)
+          --solver ccd|dls|learnt|learnt+ccd   IK solver (default ccd); learnt:
+                              the lead arm where the library's learnt-IK model
+                              (Ong & Hilton 2005) says it is for the bat's
+                              handle (bat_error_cm is what the data gives);
+                              learnt+ccd: that pose as CCD's start, then exact
+          --leave-out         learnt solvers: train without the adapted shot
           --twist follow|lead CCD: the left arm's roll joints keep the source's
                               twist (follow, default: the face stays square) or
                               are turned by CCD too (lead, the dissertation's)
