@@ -37,6 +37,8 @@ def register(cli: typer.Typer) -> None:
         part: str = typer.Option("upper", "--part", help="--components-strip: upper (as in Figure 3.2) or body."),
         directions: bool = typer.Option(False, "--directions", help="Face angle and ball direction over a grid of hit-point offsets, wrist 0 vs 2 DOF (Fig. 2.6); --json for JSON."),
         multi: bool = typer.Option(False, "--multi", help="The 'batting space' of all shots together (4.2): variance of 2 and 3 PCs."),
+        solvers: bool = typer.Option(False, "--solvers", help="ccd, dls, learnt and learnt+ccd side by side over the --offsets distances along +-x, +-y, +-z: bat error, grip error, joint-limit hits, us a frame, style RMSE, face angle (medians); --json for JSON."),
+        leave_out: bool = typer.Option(False, "--leave-out", help="--solvers: the learnt model of each shot trained without it."),
         library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
     ):
         """PCA of each shot: explained variance per component and cumulative (first 5 PCs).
@@ -50,9 +52,9 @@ def register(cli: typer.Typer) -> None:
             check_png_out(strip, "--components-strip")
             if part not in PARTS:
                 raise UserError(f"--part must be one of {', '.join(PARTS)}, got {shorten(part)!r}")
-        if style or directions:
+        if style or directions or solvers:
             from engine.adapt import AdaptSettings, check_settings  # numba (0.25 s): when the command runs
-            offsets_cm = _parse_offsets(offsets) if style else None
+            offsets_cm = _parse_offsets(offsets) if style or solvers else None
             falloff = falloff_cm("--falloff", falloff)
             check_settings(AdaptSettings(falloff=falloff, solver=solver))
         rig, shots = load_shots(library)
@@ -60,6 +62,16 @@ def register(cli: typer.Typer) -> None:
             raise UserError("the shot library is empty")
         if shot:
             shots = [find_shot(shots, n) for n in shot]
+        if solvers:
+            from app.cli.solvers_report import print_solvers, solvers_report
+            if leave_out and len(shots) < 2:
+                raise UserError("--leave-out needs a library of at least 2 shots (the learnt model trains on the others)")
+            report = solvers_report(rig, shots, offsets_cm, falloff, 0, leave_out)
+            if as_json:
+                print(json.dumps(report, indent=1))
+            else:
+                print_solvers(report)
+            return
         if directions:
             report = directions_report(rig, shots, falloff_cm("--falloff", falloff), solver)
             if as_json:

@@ -102,6 +102,7 @@ def run_bench(reps: int = 200) -> dict:
         if worst is None or st["median"] > worst["median"]:
             worst = dict(st, shot=other.name, frames=other.num_frames)
     res["whole_shot_ms_slowest_shot"] = worst
+    res["solvers"] = solver_figures(rig)
     grot, gpos = shot.fk
     bind = bind_positions(rig.skeleton)
     res["skinning_one_frame_us"] = _stats(_time(lambda: skinning_matrices(grot[h], gpos[h], bind), reps), 1e6)
@@ -150,13 +151,24 @@ def run_bench(reps: int = 200) -> dict:
     return res
 
 
+def solver_figures(rig) -> dict:
+    """ccd, dls, learnt, learnt+ccd on every bundled shot over offsets of 15 and 30 cm along
+    +-x, +-y, +-z (engine.solver_compare; 3 timed runs each): the medians over shots."""
+    from app.cli.solvers_report import clean
+    from engine.solver_compare import compare
+    report = compare(rig, load_library(rig=rig), (15.0, 30.0), reps=3)
+    return clean({"offsets": "15 and 30 cm along +-x, +-y, +-z", "median_over_shots": report["overall"]})
+
+
 def register(cli: typer.Typer) -> None:
     @cli.command("bench")
     @cli_errors
     def bench(as_json: bool = typer.Option(False, "--json", help="Print JSON only."),
               reps: int = typer.Option(200, "--reps", help="Timed repetitions per figure (10..100000).")):
-        """Engine timings: one frame adapted (both arms), a whole shot, skinning
-        matrices for one frame, and ikpy on the same left-arm chain (median, p95)."""
+        """Engine timings: one frame adapted (both arms), a whole shot, the four solvers
+        side by side (ccd, dls, learnt, learnt+ccd: us a frame, bat and grip error, limit
+        hits, style RMSE, face angle; medians over shots), skinning matrices for one
+        frame, and ikpy on the same left-arm chain (median, p95)."""
         reps = number("--reps", reps, MIN_REPS, MAX_REPS, integer=True)
         res = run_bench(reps)
         if as_json:
