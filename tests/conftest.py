@@ -20,3 +20,12 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 def rig():
     from engine.rig import default_rig
     return default_rig()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def software_gl_kernels():
+    """The software-GL profile's kernels compiled once for the run: the viewer compiles them
+    behind its window and stands its tricks aside until then; a test asking for the profile
+    wants it whole from its first frame (tests/test_softgl_kernels.py covers the wait)."""
+    from app.softgl import kernels
+    kernels.compile_all()

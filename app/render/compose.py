@@ -17,6 +17,7 @@ import numpy as np
 
 from app import softgl
 from app.render.gl import can_copy_regions
+from app.softgl import kernels
 from app.softgl.present import FrameDamage
 
 _BLIT_VS = """
@@ -117,7 +118,7 @@ class Compositor:
     def present(self, window) -> None:
         """Draw the frame to a visible window and show it (no-op headless). On software GL,
         where the window keeps its back buffer, only what changed since the last present."""
-        partial = self.software_gl and getattr(window, "preserves_back_buffer", False)
+        partial = self.software_gl and getattr(window, "preserves_back_buffer", False) and kernels.ready()
         if window.glfw is None or not window.visible:
             self.damage.take(resolve=False)
             return

@@ -20,6 +20,7 @@ import moderngl
 import numpy as np
 
 from app import softgl
+from app.softgl import kernels
 from .body import BodyPass
 from .fxaa import AntialiasPass
 from .gl import copy_rect
@@ -168,7 +169,7 @@ class SceneRenderer:
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         ctx.depth_func = "<"
         layered = self.software_gl and self.static_layer.copy_into(frame, target)
-        ghost_layer = layered and self.ghost.wanted(view)
+        ghost_layer = layered and self.ghost.wanted(view) and kernels.ready()
         if ghost_layer:
             self.ghost_layer.update(frame)
         if not layered:

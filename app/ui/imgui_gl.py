@@ -14,6 +14,7 @@ import numpy as np
 from imgui_bundle import imgui
 
 from app import softgl
+from app.softgl import kernels
 from app.softgl.ui_damage import Batch, DamageTracker, UiGeometry
 
 _VERTEX = """
@@ -129,7 +130,7 @@ class ImguiRenderer:
         ox, oy = draw_data.display_pos
         display = (ox, oy, ox + width, oy + height)
         boxes = [(x, y, x + w, y + h) for x, y, w, h in keep]
-        if self.damage is None:
+        if self.damage is None or not kernels.ready():
             indices, plan = geo.indices.reshape(-1), _every_command(geo)
         else:
             indices, plan = self.damage.plan(geo, display, boxes, (fbo.glo, fbo.size, tuple(draw_data.framebuffer_scale)))

@@ -17,6 +17,7 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from app.viewer import playback
+from app import softgl
 from app.viewer.camera import OrbitCamera
 from app.render.compose import BACKGROUND, Compositor
 from app.ui.imgui_gl import ImguiRenderer
@@ -77,7 +78,8 @@ class App:
             session.restore(self.settings, self.state, self.camera)
             self.state.session_line = session.line
         if self.state.shots:
-            self.state.engine_warmup = EngineWarmup(self.state, self.settings, apart=not headless).start()
+            self.state.engine_warmup = EngineWarmup(self.state, self.settings, apart=not headless,
+                                                    softgl=softgl.enabled(self.ctx)).start()
         self.scene_renderer = self._make_scene_renderer()
         self.compositor = Compositor(self.ctx)
         if headless and self.state.engine_warmup is not None:

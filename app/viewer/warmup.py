@@ -8,7 +8,10 @@ With ``apart`` and a cold cache the compiling itself runs in a child process
 (``python -m app.warmup``) that fills the disk cache, and the thread then only loads it:
 compiling in this process would hold numba's global compiler lock for tens of seconds, and the
 window's own small kernels (shadow fit, screen boxes) waited on it at their first use (the
-first frame came at 55 s, measured). The child also leaves this process's GIL alone."""
+first frame came at 55 s, measured). The child also leaves this process's GIL alone.
+
+With ``softgl`` (the window runs the software-GL profile) the profile's kernels are compiled
+too, after the solver's (``app.softgl.kernels``): until then the window draws the plain way."""
 from __future__ import annotations
 
 import dataclasses
@@ -19,6 +22,7 @@ import time
 
 from numba.core.dispatcher import Dispatcher
 
+from app.softgl import kernels as softgl_kernels
 from app.viewer import pcpad
 from app.viewer.settings import SOLVERS, ViewerSettings
 from app.viewer.state import AppState
@@ -27,11 +31,11 @@ from engine import adapt, cleanup
 
 
 class EngineWarmup:
-    def __init__(self, state: AppState, settings: ViewerSettings, apart: bool = False):
+    def __init__(self, state: AppState, settings: ViewerSettings, apart: bool = False, softgl: bool = False):
         self._state = AppState(rig=state.rig, shots=state.shots, hit_points=state.hit_points,
                                bind_positions=state.bind_positions, ball_start=state.ball_start)
         self._settings = dataclasses.replace(settings, overlays=dataclasses.replace(settings.overlays))
-        self.apart = apart
+        self.apart, self.softgl = apart, softgl
         self.solver_ready, self.ready = threading.Event(), threading.Event()
         self.error: str = ""               # why warming failed (the main thread then compiles as it goes)
         self.seconds = 0.0                 # how long it took
@@ -52,11 +56,13 @@ class EngineWarmup:
     def _run(self) -> None:
         t0 = time.perf_counter()
         try:
-            if self.apart and not kernels_cached():
-                subprocess.run([sys.executable, "-m", "app.viewer.warmup"], check=False,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            if self.apart and not kernels_cached(self.softgl):
+                subprocess.run([sys.executable, "-m", "app.viewer.warmup"] + ["--softgl"] * self.softgl,
+                               check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             self._warm_solver()
             self.solver_ready.set()
+            if self.softgl:
+                softgl_kernels.compile_all()
             self._warm_pad()
         except Exception as e:      # a broken shot says so when the update solves it; never in this thread
             self.error = f"{type(e).__name__}: {e}"
@@ -80,15 +86,16 @@ class EngineWarmup:
         pcpad.apply_preset(state, "exaggerated")
 
 
-def kernels_cached() -> bool:
+def kernels_cached(softgl: bool = False) -> bool:
     """Whether numba's disk cache holds the solver's and the clean-up's kernels for the
-    engine's sources as they are (a fresh index for each)."""
+    engine's sources as they are (a fresh index for each), and with ``softgl`` the
+    software-GL profile's."""
     kernels = [v for module in (adapt, cleanup) for v in vars(module).values()
                if isinstance(v, Dispatcher) and v.py_func.__module__ == module.__name__]
-    return all(k._cache._cache_file._load_index() for k in kernels)
+    return all(k._cache._cache_file._load_index() for k in kernels) and (not softgl or softgl_kernels.cached())
 
 
 if __name__ == "__main__":      # the child of ``apart``: compile into the disk cache, then exit
     scratch = AppState()
     if load_library(scratch):
-        EngineWarmup(scratch, ViewerSettings())._run()
+        EngineWarmup(scratch, ViewerSettings(), softgl="--softgl" in sys.argv)._run()
