@@ -4,6 +4,7 @@ meant)."""
 from __future__ import annotations
 
 import functools
+import json
 import math
 import sys
 import warnings
@@ -82,8 +83,7 @@ def falloff(option: str, value) -> float:
 
 # Exceptions that mean "bad input", never a bug worth a traceback.
 def _input_errors():
-    from engine.bvh import BvhError
-    import json
+    from engine.bvh import BvhError      # the engine (numpy) only when an error is described
     return (UserError, BvhError, KeyError, ValueError, json.JSONDecodeError)
 
 

@@ -4,8 +4,10 @@ the implement drawn as a bat in the lead hand. trimesh builds the shapes."""
 from __future__ import annotations
 
 import numpy as np
+import trimesh
 
 from app.render.mesh import Mesh
+from engine.skeleton import bind_positions
 
 SKIN = (0.86, 0.70, 0.58, 1.0)
 KIT = (0.93, 0.93, 0.90, 1.0)          # cricket whites
@@ -20,7 +22,6 @@ MIN_BONE_CM = 1.0                      # shorter bones (CMU's zero-length joints
 
 def _oriented(mesh, start: np.ndarray, end: np.ndarray):
     """A trimesh shape built along +Z from 0 to |end - start|, moved onto the segment."""
-    import trimesh
     d = end - start
     T = trimesh.geometry.align_vectors([0, 0, 1], d / np.linalg.norm(d))
     T[:3, 3] = start
@@ -36,7 +37,6 @@ def _part(mesh, joint: int, color) -> tuple:
 
 
 def _bones(rig, bind: np.ndarray, parts: list) -> None:
-    import trimesh
     skel = rig.skeleton
     implement = rig.bat_joint
     for j in range(1, skel.num_joints):
@@ -52,7 +52,6 @@ def _bones(rig, bind: np.ndarray, parts: list) -> None:
 
 
 def _head(rig, roles_head: int | None, bind: np.ndarray, parts: list) -> None:
-    import trimesh
     if roles_head is None:
         return
     ball = trimesh.creation.icosphere(subdivisions=2, radius=HEAD_RADIUS_CM)
@@ -62,7 +61,6 @@ def _head(rig, roles_head: int | None, bind: np.ndarray, parts: list) -> None:
 
 def _bat(rig, bind: np.ndarray, axis_world: np.ndarray, parts: list) -> None:
     """Handle from the lead hand along ``axis_world`` (rest pose), then the blade."""
-    import trimesh
     hand = int(rig.skeleton.parents[rig.bat_joint])
     axis = axis_world / np.linalg.norm(axis_world)
     top = bind[hand] - axis * BAT_TOP_CM
@@ -79,7 +77,6 @@ def _bat(rig, bind: np.ndarray, axis_world: np.ndarray, parts: list) -> None:
 def bone_body(rig, head: int | None, bat_axis: np.ndarray | None) -> Mesh:
     """The body mesh (rest pose, cm) of ``rig``; ``head`` the head joint (or None);
     ``bat_axis`` the bat's direction in the rest pose (None: no bat)."""
-    from engine.skeleton import bind_positions
     bind = bind_positions(rig.skeleton)
     parts: list = []
     _bones(rig, bind, parts)

@@ -12,6 +12,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pygltflib
+
+from engine.rig import assets_dir, default_rig
 
 _DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
@@ -35,7 +38,6 @@ class Mesh:
 
 
 def default_glb_path() -> Path:
-    from engine.rig import assets_dir
     return assets_dir() / "batsman.glb"
 
 
@@ -63,8 +65,6 @@ def load_glb(path: str | Path | None = None, rig=None) -> dict[str, Mesh]:
     Skinned meshes need ``rig`` (default: the bundled rig); a skin joint that the
     rig lacks raises ``ValueError`` naming it.
     """
-    import pygltflib
-
     path = Path(path) if path else default_glb_path()
     gltf = pygltflib.GLTF2().load(str(path))
     blob = gltf.binary_blob()
@@ -101,7 +101,6 @@ def load_glb(path: str | Path | None = None, rig=None) -> dict[str, Mesh]:
             skin = gltf.skins[skin_index]
             names = [gltf.nodes[j].name for j in skin.joints]
             if rig is None:
-                from engine.rig import default_rig
                 rig = default_rig()
             missing = [n for n in names if n not in rig.skeleton.names]
             if missing:

@@ -20,7 +20,9 @@ import moderngl
 import numpy as np
 
 from app import softgl
+from app.render.mesh import load_glb
 from app.softgl import kernels
+from engine.skeleton import bind_positions
 from .body import BodyPass
 from .fxaa import AntialiasPass
 from .gl import copy_rect
@@ -87,7 +89,7 @@ def _body_meshes(rig, meshes: dict, own: bool) -> tuple[list, object]:
     """The body's levels of detail (finest first) and its shadow caster: the batsman's
     (``own``: the rig is his), or capsules along the bones of another skeleton."""
     if not own:
-        from app.render.bonebody import bone_body
+        from app.render.bonebody import bone_body     # trimesh (~0.4 s): only for a user's skeleton
         return [bone_body(rig, rig.roles.get("head"), rig.bat.get("axis"))], None
     levels = [meshes["Batsman"]]         # a missing level ends the chain
     for name in ("BatsmanLod1", "BatsmanLod2"):
@@ -102,9 +104,6 @@ class SceneRenderer:
     def __init__(self, ctx, rig, glb_path=None, software_gl: bool | None = None):
         """Load ``assets/batsman.glb`` (or ``glb_path``) and the shaders; build the passes.
         ``software_gl``: the software-GL profile (None: ``app.softgl.enabled(ctx)``)."""
-        from app.render.mesh import load_glb
-        from engine.skeleton import bind_positions
-
         self.ctx, self.rig = ctx, rig
         self.software_gl = softgl.enabled(ctx) if software_gl is None else bool(software_gl)
         self.bind_positions = bind_positions(rig.skeleton)
@@ -130,7 +129,7 @@ class SceneRenderer:
         self.static_key = None         # software GL: the static layer under the last render
         self.changed = None            # and what it drew over it (softgl.screen_box.ChangedRegion)
         if self.software_gl:
-            from app.softgl.layers import GhostLayer, StaticLayer
+            from app.softgl.layers import GhostLayer, StaticLayer     # they import app.render: a cycle at the top
             self.static_layer = StaticLayer(ctx, self.static)
             self.ghost_layer = GhostLayer(ctx, self.p, self.ghost, self._joint_boxes)
 
@@ -197,7 +196,7 @@ class SceneRenderer:
         partial present."""
         if not self.software_gl:
             return
-        from app.softgl.screen_box import changed_region
+        from app.softgl.screen_box import changed_region     # imports app.render: a cycle at the top
         self.static_key = self.static_layer.key if layered else None
         self.changed = changed_region(frame.view, frame.vp, self._joint_boxes, quad, lines, points)
 

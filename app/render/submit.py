@@ -6,10 +6,12 @@ from collections import OrderedDict
 
 import numpy as np
 
+from app.render.scene import SceneView
 from app.viewer.camera import OrbitCamera
 from app.viewer.picking import TARGET_NORMAL
 from app.viewer.settings import ViewerSettings
 from app.viewer.state import AppState
+from engine.skeleton import skinning_matrices
 
 HIT_POINT_RGBA = (0.2, 0.45, 1.0, 1.0)          # the nine FK hit points: blue crosses
 CHOSEN_RGBA = (0.55, 0.8, 1.0, 1.0)
@@ -30,8 +32,6 @@ CAMERA_SETTLE_S = 0.2
 def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCamera,
                      size: tuple[int, int]):
     """The ``SceneView`` of this frame for a viewport of ``size = (w, h)`` pixels."""
-    from app.render.scene import SceneView
-    from engine.skeleton import skinning_matrices
     w, h = int(size[0]), int(size[1])
     o = settings.overlays
     parents = state.rig.skeleton.parents if state.rig is not None else None

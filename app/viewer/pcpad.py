@@ -33,6 +33,7 @@ from app.viewer.capture import safe_stem, write_new
 from app.viewer.state import Pose
 from engine import bvh, cleanup, synth
 from engine import pca as pcam
+from engine.skeleton import pose_fk
 
 SECTION_RGBA = ((0.93, 0.26, 0.22, 1.0), (0.25, 0.78, 0.35, 1.0), (0.30, 0.55, 1.0, 1.0))
 DRAWN_RGBA = (1.0, 0.62, 0.15, 1.0)
@@ -141,13 +142,11 @@ def sync(state) -> PadState | None:
 
 
 def _fk_pose(rig, root, local):
-    from engine.skeleton import pose_fk
     return pose_fk(rig.skeleton, root, local)
 
 
 def _fk_single(rig, root, local):
     """FK of one pose by 3x3 matrices (the marker moves every frame)."""
-    from engine.skeleton import pose_fk
     return pose_fk(rig.skeleton, root, local, one_pose=True)
 
 
