@@ -111,6 +111,7 @@ events = st.one_of(
     event("key", key=st.sampled_from(["space", "h", "left", "nope", "F12"]) | wild),
     event("pcpad_drag", **{"from": vec2, "to": vec2, "frames": frames_field}),
     event("screenshot", path=st.text(max_size=10) | wild),
+    event("reload"),
     event("warp"),
     st.dictionaries(st.sampled_from(["type", "frame", "t", "key", "value", "frames"]), wild, max_size=4),
 )

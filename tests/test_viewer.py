@@ -446,3 +446,10 @@ def test_f12_is_a_request_taken_once_not_a_setting(app, tmp_path, monkeypatch):
     run(app, 2)
     assert len(list(tmp_path.glob("*.png"))) == 1 and not app.requests.screenshot
     assert all("request" not in f.name for f in dataclasses.fields(app.settings))
+
+
+def test_a_script_reloads_the_library_like_the_panel_button(app):
+    from app.viewer.script import ScriptPlayer
+    shots = app.state.shots
+    run(app, 2, ScriptPlayer([{"type": "reload", "frame": 0}]))
+    assert app.state.shots is not shots and [s.name for s in app.state.shots] == [s.name for s in shots]

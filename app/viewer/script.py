@@ -20,7 +20,7 @@ frames per second) and a ``"type"``:
   ``app.pcpad.PAD_ACTIONS``, e.g. ``mode draw``, ``preset aborted``, ``amount 0.7``,
   ``remake_preset``, ``take 0``, ``forget``, ``play``, ``back``, ``export``,
   ``fix_hand false``), ``screenshot {path}``, ``export {dir, formats?}`` (a new folder; formats from
-  ``png mp4 bvh glb gltf``, default all but ``gltf``).
+  ``png mp4 bvh glb gltf``, default all but ``gltf``), ``reload`` (the panel's "Reload shot library").
 
 Every event is checked when the script is loaded: numbers finite and in range,
 ``set`` only for real settings with a value of the setting's type, and nothing
@@ -263,6 +263,9 @@ class ScriptPlayer:
     def _ev_screenshot(self, f, e):
         path = _text(e["path"], "path", MAX_PATH_CHARS)
         self._at(f, lambda app: app.request_screenshot(path))
+
+    def _ev_reload(self, f, e):
+        self._at(f, lambda app: setattr(app.requests, "reload", True))
 
     def _ev_export(self, f, e):
         out = _text(e["dir"], "dir", MAX_PATH_CHARS)
