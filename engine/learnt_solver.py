@@ -19,13 +19,17 @@ the adapted shot: ``leave_out``) and cached per left-out shot by :class:`LearntS
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import ccd, learnt_ik as L, quat
+from . import ccd, quat
 from .adapt import Adaptation, AdaptSettings, check_point, check_settings
 from .adapt import SOLVERS as KERNEL_SOLVERS
 from .skeleton import forward_kinematics
+
+if TYPE_CHECKING:       # engine.learnt_ik (scipy's k-means) loads when a model is trained: the
+    from . import learnt_ik as L    # viewer imports this module for SOLVERS at its start
 
 LEARNT_SOLVERS = ("learnt", "learnt+ccd")
 SOLVERS = KERNEL_SOLVERS + LEARNT_SOLVERS
@@ -54,12 +58,13 @@ class LearntSolver:
     def __init__(self, rig, shots, settings: L.LearntSettings | None = None):
         self.rig = rig
         self.shots = list(shots)
-        self.settings = settings or L.LearntSettings()
+        self.settings = settings
         self._models: dict = {}
 
     def model(self, leave_out: str | None = None) -> L.LimbModel:
         """The model trained on every shot but ``leave_out`` (a shot name; None: all)."""
         if leave_out not in self._models:
+            from . import learnt_ik as L
             training = [s.clip.local_rotations for s in self.shots if s.name != leave_out]
             if not training:
                 raise ValueError(f"learnt solver: nothing to train on without {leave_out!r} "
@@ -141,6 +146,7 @@ def learnt_start(adapter, model: L.LimbModel, desired: np.ndarray, blend: np.nda
 def looked_up(adapter, model: L.LimbModel, desired: np.ndarray, blend: np.ndarray) -> np.ndarray:
     """Local rotations ``(F, J, 4)``: the source, with the lead-arm chain as the model
     gives it for each frame's handle on the frames of blend > 0."""
+    from . import learnt_ik as L
     start = adapter.src_local.copy()
     active = np.flatnonzero(blend > 0.0)
     if not len(active):

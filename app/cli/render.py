@@ -68,14 +68,16 @@ def bat_segment(rig, global_rotations: np.ndarray, global_positions: np.ndarray)
     return global_positions[..., hand, None, :] + quat.rotate(np.broadcast_to(r, r.shape[:-2] + (2, 4)), local)
 
 
-def strip_camera(points: np.ndarray, cell: tuple[int, int], fovy: float = 30.0, margin: float = 0.86):
-    """Off-side camera (from -X, a little toward the bowler) framing ``points (N,3)``; (view, proj).
-    Starts close and backs off until every point projects inside ``margin`` of the frame.
+def strip_camera(points: np.ndarray, cell: tuple[int, int], fovy: float = 30.0, margin: float = 0.86,
+                 direction=(-1.0, 0.18, 0.22)):
+    """Off-side camera (from -X, a little toward the bowler; or from ``direction``) framing
+    ``points (N,3)``; (view, proj). Starts close and backs off until every point projects
+    inside ``margin`` of the frame.
     """
     from app.render import look_at, perspective  # moderngl: when it renders
     centre = 0.5 * (points.min(0) + points.max(0))
-    direction = np.array([-1.0, 0.18, 0.22])
-    direction /= np.linalg.norm(direction)
+    direction = np.asarray(direction, float)
+    direction = direction / np.linalg.norm(direction)
     proj = perspective(fovy, cell[0] / cell[1], 10.0, 20000.0)
     homo = np.concatenate([points, np.ones((len(points), 1))], 1)
     dist = 150.0
@@ -178,7 +180,12 @@ def register(cli: typer.Typer) -> None:
     @cli.command("render-strip")
     @cli_errors
     def render_strip_cmd(
-        shot: str = typer.Option(..., "--shot", help="Shot name from the library (see `hitpoint shots`)."),
+        shot: str = typer.Option(None, "--shot", help="Shot name from the library (see `hitpoint shots`)."),
+        bvh: Path = typer.Option(None, "--bvh", help="A capture instead of a shot, e.g. a `hitpoint terrain` result; "
+                                 "frames spread over it, each seen from the side of its walk."),
+        terrain: str = typer.Option(None, "--terrain", help="With --bvh: draw it over this terrain (the SPEC given "
+                                    "to `hitpoint terrain`), the pitch hidden."),
+        profile: str = typer.Option("auto", "--profile", help="Rig profile of --bvh: a name, a JSON file or auto."),
         out: Path = typer.Option(..., "--out", help="PNG file to write."),
         frames: int = typer.Option(9, "--frames", help="Number of frames on the sheet (the hit frame is always one)."),
         size: str = typer.Option("260x340", "--size", help="Size of one cell, WIDTHxHEIGHT pixels."),
@@ -190,7 +197,9 @@ def register(cli: typer.Typer) -> None:
         library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, "
                                      "or the manifest (default: the bundled library)."),
     ):
-        """Contact sheet of a shot: skinned mesh (top) and source skeleton (bottom), frames side by side."""
+        """Contact sheet of a shot: skinned mesh (top) and source skeleton (bottom), frames side by side.
+        With --bvh FILE [--terrain SPEC]: a capture (a `hitpoint terrain` result) over its terrain
+        mesh, the feet's terrain heights marked (yellow) in the skeleton row."""
 
         number("--frames", frames, 1, MAX_STRIP_FRAMES, integer=True)
         check_png_out(out)
@@ -199,6 +208,16 @@ def register(cli: typer.Typer) -> None:
         if sheet_px > MAX_SHEET_PIXELS:
             raise UserError(f"--frames {frames} of --size {size}: the sheet would be {sheet_px / 1e6:.0f} "
                             f"megapixels, more than the limit of {MAX_SHEET_PIXELS / 1e6:.0f}")
+        if (shot is None) == (bvh is None):
+            raise UserError("give --shot NAME or --bvh FILE, one of them")
+        if bvh is not None:
+            if hit is not None or library is not None:
+                raise UserError("--bvh draws the capture as it is: no --hit or --library")
+            from app.cli.terrain_strip import run_terrain_strip
+            print(run_terrain_strip(bvh, terrain, profile, out, frames, cell))
+            return
+        if terrain is not None:
+            raise UserError("--terrain goes with --bvh FILE (a `hitpoint terrain` result)")
         hit = None if hit is None else position("--hit", hit)
         settings = dict(falloff=falloff_cm("--falloff", falloff),
                         wrist_dof=number("--wrist-dof", wrist_dof, choices=WRIST_DOFS))

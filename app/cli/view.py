@@ -42,6 +42,9 @@ def view(
     software_gl: Annotated[str, typer.Option("--software-gl", help="The software-GL profile (cached layers, "
                            "partial redraws and presents): auto (on for llvmpipe/softpipe/swrast), on or off.")
                            ] = "auto",
+    terrain: Annotated[Optional[str], typer.Option("--terrain", help="Draw this uneven ground (the SPEC given to "
+                       "`hitpoint terrain`) instead of the pitch, e.g. with --library on a folder holding a "
+                       "`hitpoint terrain` result.")] = None,
 ):
     """Open the viewer: drag the red-and-white target, the shot adapts every frame."""
     started = time.perf_counter()
@@ -55,6 +58,9 @@ def view(
         raise UserError(f"{library}: no shot library (a library.json, or a folder holding one: "
                         f"hitpoint library init FOLDER writes it)")
     _check_outputs(screenshot, stats)
+    if terrain is not None:
+        from app.cli.terrain_strip import load_terrain
+        load_terrain(terrain)       # a bad SPEC is refused before a window opens
     from app import softgl
     if software_gl not in softgl.MODES:
         raise UserError(f"--software-gl {software_gl!r}: one of {', '.join(softgl.MODES)}")
@@ -68,6 +74,9 @@ def view(
     except DisplayError as e:
         raise UserError(str(e)) from None
     try:
+        if terrain is not None:
+            from app.viewer.terrain import show_terrain
+            show_terrain(app.state, terrain)
         if headless or frames or player is not None:
             if headless:
                 _refuse_failures(app)

@@ -299,3 +299,29 @@ def stadium(segments: int = 96) -> tuple[np.ndarray, np.ndarray]:
         b = a + (0.0, 700.0, 0.0)
         parts.append(_band(a, b, (0.96, 0.96, 0.96), (0.99, 0.99, 0.99)))
     return np.concatenate([p[0] for p in parts]).astype(np.float32), np.concatenate([p[1] for p in parts]).astype(np.float32)
+
+
+TERRAIN_RGB = ((0.42, 0.36, 0.26), (0.58, 0.52, 0.38))     # low and high ground
+TERRAIN_LINE_CM = 20.0      # a darker line every this many cm across, so the bumps read in a still
+
+
+def terrain_prop(vertices: np.ndarray, triangles: np.ndarray) -> Mesh:
+    """A drawable mesh of ``engine.terrain.terrain_mesh``'s vertices ``(N, 3)`` and triangles
+    ``(M, 3)``: smooth normals, coloured by height, with grid lines every TERRAIN_LINE_CM."""
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, np.int64)
+    face = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    if face[:, 1].sum() < 0:
+        face = -face                       # the terrain's normals point up
+    nrm = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(nrm, t[:, k], face)
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-9)
+    y = v[:, 1]
+    a = (y - y.min()) / max(float(np.ptp(y)), 1e-9)
+    lo, hi = (np.asarray(c) for c in TERRAIN_RGB)
+    col = lo + a[:, None] * (hi - lo)
+    line = (np.abs((v[:, 0] / TERRAIN_LINE_CM + 0.5) % 1 - 0.5) < 0.06) | \
+        (np.abs((v[:, 2] / TERRAIN_LINE_CM + 0.5) % 1 - 0.5) < 0.06)
+    col[line] *= 0.7
+    return _mesh(v, nrm, t, col, 0.1)

@@ -54,6 +54,7 @@ class SceneView:
     points: list = ()             # [(points (N,3), rgba, size_px)]
     polylines: list = ()          # [(points (N,3), rgba, width_px)]
     show_pitch: bool = True
+    terrain: object = None        # an app.render.props.terrain_prop Mesh (uneven ground) drawn in the static pass
     # optional extras
     origin: tuple[int, int] = (0, 0)  # lower-left corner of the view in the target (GL pixels)
     shadows: bool = True

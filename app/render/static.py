@@ -1,5 +1,5 @@
 """The static scene pass: the ground (painter's order) with the stumps' shadow, the stumps,
-the stadium and the sky."""
+uneven terrain where the view has one (``SceneView.terrain``), the stadium and the sky."""
 from __future__ import annotations
 
 import moderngl
@@ -26,6 +26,7 @@ class StaticPass:
         self.ground = vao(ctx, progs.ground, [(g0, "3f", "in_pos"), (g1, "3f", "in_color")])
         self.stadium = vao(ctx, progs.ground, [(s0, "3f", "in_pos"), (s1, "3f", "in_color")])
         self.sky = ctx.vertex_array(progs.sky, [])
+        self._terrain = (None, None)     # (the view's terrain Mesh, its buffers)
 
     def draw(self, frame, fbo, origin=(0, 0)) -> None:
         """Into ``fbo`` at ``origin`` (its view rectangle cleared first); the stumps' shadow
@@ -36,21 +37,31 @@ class StaticPass:
         fbo.use()
         ctx.viewport = (*origin, *view.size)
         fbo.clear(*BACKGROUND, 1.0, depth=1.0, viewport=ctx.viewport)
-        frame_uniforms(p, frame.vp, frame.eye, self.shadow.static_fit[0], frame.shadows, self.shadow.static_tex)
+        frame_uniforms(p, frame.vp, frame.eye, self.shadow.static_fit[0], frame.shadows and view.terrain is None,
+                       self.shadow.static_tex)          # (the stumps' shadow falls on the pitch only)
         if view.show_pitch:
             ctx.depth_func = "1"
             self.ground.render()
             ctx.depth_func = "<"
             if frame.shadows:
                 self.shadow.draw_receiver(self.shadow.static_fit[1], stumps=True)
-        ctx.enable(moderngl.CULL_FACE)
         set_uniform(p.static, "u_mode", 0)
         set_uniform(p.static, "u_model", IDENTITY)
-        self.wickets.lit.render()
-        ctx.disable(moderngl.CULL_FACE)
+        if view.terrain is None:         # the stumps stand on the pitch, not on a terrain
+            ctx.enable(moderngl.CULL_FACE)
+            self.wickets.lit.render()
+            ctx.disable(moderngl.CULL_FACE)
+        if view.terrain is not None:
+            self._terrain_gpu(view.terrain).lit.render()
         if view.show_pitch:
             self.stadium.render()    # flat-lit, after the near geometry so early-z skips hidden parts
         ctx.depth_func = "<="
         set_uniform(p.sky, "u_inv_view_proj", np.linalg.inv(frame.vp.astype(float)).astype(np.float32))
         self.sky.render(vertices=3)
         ctx.depth_func = "<"
+
+    def _terrain_gpu(self, mesh) -> MeshGPU:
+        """The terrain's buffers, made when the view's terrain mesh is new."""
+        if self._terrain[0] is not mesh:
+            self._terrain = (mesh, MeshGPU(self.ctx, mesh, self.p.static, self.p.depth))
+        return self._terrain[1]

@@ -37,17 +37,19 @@ def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCam
     parents = state.rig.skeleton.parents if state.rig is not None else None
     view = SceneView(view=camera.view(), proj=camera.proj(w / max(h, 1)), size=(w, h),
                      skin_matrices=_skin(state.pose, state, skinning_matrices))
-    view.show_pitch = o.pitch
+    view.show_pitch = o.pitch and state.terrain is None
+    view.terrain = state.terrain
     view.antialias = bool(settings.antialias)
     view.camera_moving = state.camera_still_s < CAMERA_SETTLE_S
     view.target_position = np.asarray(settings.target, np.float32) if o.target else None
     view.target_normal = TARGET_NORMAL
     view.target_highlight = bool(state.hover_target or state.dragging_target)
-    if state.source_pose is not None and o.ghost == "mesh":
-        view.ghost_skin_matrices = _skin(state.source_pose, state, skinning_matrices)
+    ghost, ghost_mode = ghost_pose(state, settings)
+    if ghost is not None and ghost_mode == "mesh":
+        view.ghost_skin_matrices = _skin(ghost, state, skinning_matrices)
     lines = []
-    if state.source_pose is not None and o.ghost == "skeleton":
-        lines.append((state.source_pose.global_positions, parents, GHOST_SKELETON_RGBA))
+    if ghost is not None and ghost_mode == "skeleton":
+        lines.append((ghost.global_positions, parents, GHOST_SKELETON_RGBA))
     if state.pose is not None and o.skeleton:
         lines.append((state.pose.global_positions, parents, SKELETON_RGBA))
     view.skeleton_lines = lines
@@ -72,6 +74,14 @@ def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCam
     if o.ball and state.ball_position is not None:
         view.ball_position = np.asarray(state.ball_position, np.float32)
     return view
+
+
+def ghost_pose(state: AppState, settings: ViewerSettings):
+    """(pose, "mesh" | "skeleton" | "off") the ghost draws, in the ghost overlay's mode: the
+    compared solver's pose when a comparison is asked, else the source."""
+    if settings.compare_solver != "off" and state.compare_pose is not None:
+        return state.compare_pose, settings.overlays.ghost
+    return state.source_pose, settings.overlays.ghost
 
 
 _SKIN_CACHE: OrderedDict = OrderedDict()     # pose bytes -> skinning matrices; the last few

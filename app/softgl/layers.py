@@ -71,7 +71,7 @@ class StaticLayer(Layer):
         size = tuple(view.size)
         msaa = min(STATIC_MSAA, ctx.max_samples) if samples == 0 and not view.camera_moving else 0
         key = (size, samples, msaa, np.asarray(view.view, np.float32).tobytes(),
-               np.asarray(view.proj, np.float32).tobytes(), bool(view.show_pitch), frame.shadows)
+               np.asarray(view.proj, np.float32).tobytes(), bool(view.show_pitch), frame.shadows, id(view.terrain))
         if key != self.key:
             fbo = self.framebuffer(ctx, size, samples, textures=False)
             if msaa > 1:        # drawn multisampled, resolved into the layer (colour and depth)

@@ -8,8 +8,8 @@ import time
 import numpy as np
 from imgui_bundle import imgui, implot
 
-from app.viewer.settings import (FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE, RENDER_SCALE_RANGE,
-                          SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TWISTS, ViewerSettings)
+from app.viewer.settings import (COMPARE_CHOICES, FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE,
+                                 RENDER_SCALE_RANGE, SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TWISTS, ViewerSettings)
 from app.ui.wagonwheel import draw_wagon_wheel
 from app.ui.padwidget import draw_pc_pad
 from app.viewer.requests import Requests
@@ -119,6 +119,19 @@ def _falloff_slider(settings: ViewerSettings, state: AppState) -> None:
         imgui.set_tooltip(tip)
 
 
+SOLVER_LABELS = {"learnt": "LEARNT", "learnt+ccd": "LEARNT+CCD"}
+SOLVER_TIPS = {"learnt": "learnt IK (Ong & Hilton 2005): the arm where the library's data puts it for the bat;\n"
+                         "the bat misses by what the data gives (the readout says how far)",
+               "learnt+ccd": "the learnt pose as CCD's start, then exact"}
+
+
+def _solver_line(name: str) -> None:
+    """Radio buttons of solvers side by side, the learnt ones on a second line."""
+    if name == "learnt":
+        imgui.text("          ")
+    imgui.same_line()
+
+
 def _solver_settings(settings: ViewerSettings) -> None:
     imgui.text("left wrist")
     for dof in (0, 2):
@@ -127,9 +140,23 @@ def _solver_settings(settings: ViewerSettings) -> None:
             settings.wrist_dof = dof
     imgui.text("solver    ")
     for name in SOLVERS:
-        imgui.same_line()
-        if imgui.radio_button(name.upper(), settings.solver == name):
+        _solver_line(name)          # the learnt ones on a line of their own
+        if imgui.radio_button(SOLVER_LABELS.get(name, name.upper()), settings.solver == name):
             settings.solver = name
+        if imgui.is_item_hovered() and name in SOLVER_TIPS:
+            imgui.set_tooltip(SOLVER_TIPS[name])
+    if settings.solver in ("learnt", "learnt+ccd") or settings.compare_solver in ("learnt", "learnt+ccd"):
+        changed, v = imgui.checkbox("learn without this shot", settings.learnt_leave_out)
+        if changed:
+            settings.learnt_leave_out = v
+    imgui.text("compare   ")
+    for name in COMPARE_CHOICES:
+        _solver_line(name)
+        if imgui.radio_button(f"{SOLVER_LABELS.get(name, name.upper()) if name != 'off' else 'off'}##compare",
+                              settings.compare_solver == name):
+            settings.compare_solver = name
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("the ghost shows this solver's pose for the same shot and point (instead of the source)")
     if settings.solver == "ccd":
         imgui.text("arm rolls ")
         for name in TWISTS:
@@ -209,7 +236,8 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
     imgui.separator_text("Readouts")
     r, t = state.readouts, state.timing.shown     # timings: quarter-second means
     if imgui.begin_table("readouts", 2, imgui.TableFlags_.sizing_stretch_prop):
-        rows = [("bat error at hit frame", f"{r.bat_error_cm:.3f} cm"),
+        rows = [("solver", f"{settings.solver}: {r.us_per_frame:.1f} us a frame"),
+                ("bat error at hit frame", f"{r.bat_error_cm:.3f} cm"),
                 ("grip error (this frame)", f"{r.grip_error_cm:.2f} cm  {r.grip_error_deg:.1f} deg"),
                 ("grip error (max)", f"{r.max_grip_error_cm:.2f} cm"),
                 ("engine per frame", f"{t.get('engine', r.engine_ms):.2f} ms"),
@@ -218,6 +246,10 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
                 ("frame", f"{t.get('frame', r.frame_ms):.2f} ms  ({t.get('fps', r.fps):.0f} fps)"),
                 ("frame shown", f"{settings.frame:.2f} / {state.num_frames - 1}"),
                 ("viewport shows", VIEWPORT_SHOWS.get(state.pose_source, state.pose_source))]
+        c = r.compare
+        if c:
+            rows.append((f"ghost: {c['solver']}", f"bat {c['bat_error_cm']:.3f} cm, grip {c['max_grip_error_cm']:.2f} cm,"
+                                                  f" {c['us_per_frame']:.1f} us a frame"))
         if state.desired_hit_point is not None:
             d = state.desired_hit_point
             rows.append(("desired hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))

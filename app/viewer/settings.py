@@ -10,7 +10,8 @@ import numpy as np
 
 from app.errors import UserError, number, position, shorten
 from app.viewer.picking import TARGET_PLANE_Z, clamp_target
-from engine.adapt import SOLVERS, TWISTS, AdaptSettings
+from engine.adapt import TWISTS, AdaptSettings
+from engine.learnt_solver import SOLVERS
 
 FALLOFF_RANGE = (20.0, 200.0)       # cm; the dissertation's useful band is 70-110
 FALLOFF_BAND = (70.0, 110.0)
@@ -20,6 +21,7 @@ SPEED_RANGE = (0.05, 4.0)
 RENDER_SCALE_RANGE = (0.4, 1.0)     # 3D view resolution / window resolution (slow GPUs)
 SLOW_MOTION_FACTOR = 0.25
 GHOST_MODES = ("off", "mesh", "skeleton")
+COMPARE_CHOICES = ("off",) + SOLVERS    # a second solver's pose, drawn as the ghost
 WRIST_DOFS = (0, 2)
 MAX_FRAME_SETTING = 1e6             # a playback frame far past any shot (playback clamps it to the shot)
 MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
@@ -27,7 +29,7 @@ MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
 SETTING_RANGES = {"falloff": FALLOFF_RANGE, "iterations": ITERATIONS_RANGE, "tolerance": TOLERANCE_RANGE,
                   "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING),
                   "direction": (-180.0, 180.0)}
-SETTING_CHOICES = {"solver": SOLVERS, "twist": TWISTS, "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
+SETTING_CHOICES = {"solver": SOLVERS, "compare_solver": COMPARE_CHOICES, "twist": TWISTS, "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
 # The overlay group is set field by field (``overlays.NAME``), never as a whole. One-off
 # actions (screenshot, export, reload) are no settings: ``app.viewer.requests``.
 NOT_SETTABLE = ("overlays",)
@@ -58,6 +60,8 @@ class ViewerSettings:
     iterations: int = AdaptSettings.iterations
     tolerance: float = AdaptSettings.tolerance
     fix_right_hand: bool = AdaptSettings.fix_right_hand
+    learnt_leave_out: bool = False    # learnt solvers: the model trained without the shot it adapts
+    compare_solver: str = "off"       # "off" or a solver whose adapted pose the ghost shows instead of the source
     # scene
     target: np.ndarray = field(default_factory=lambda: np.array([0.0, 60.0, TARGET_PLANE_Z]))
     pinned_shot: str | None = None  # None: chosen by the ball path
@@ -82,6 +86,7 @@ class ViewerSettings:
         self.falloff = _clamp(_finite(self.falloff, d.falloff), *FALLOFF_RANGE)
         self.wrist_dof = 2 if int(_finite(self.wrist_dof, d.wrist_dof)) == 2 else 0
         self.solver = self.solver if self.solver in SOLVERS else d.solver
+        self.compare_solver = self.compare_solver if self.compare_solver in COMPARE_CHOICES else "off"
         self.twist = self.twist if self.twist in TWISTS else d.twist
         self.iterations = int(_clamp(_finite(self.iterations, d.iterations), *ITERATIONS_RANGE))
         self.tolerance = _clamp(_finite(self.tolerance, d.tolerance), *TOLERANCE_RANGE)
@@ -107,7 +112,12 @@ class ViewerSettings:
     def engine_key(self) -> tuple:
         """Everything the adaptation depends on; a change means re-solve."""
         return (tuple(np.round(self.target, 6)), self.pinned_shot, self.falloff, self.wrist_dof,
-                self.solver, self.iterations, self.tolerance, self.fix_right_hand, self.twist)
+                self.solver, self.iterations, self.tolerance, self.fix_right_hand, self.twist,
+                self.learnt_leave_out)
+
+    def compare_key(self) -> tuple | None:
+        """The engine key with the compared solver, or None when no comparison is asked."""
+        return None if self.compare_solver == "off" else self.engine_key() + (self.compare_solver,)
 
     @property
     def playback_rate(self) -> float:

@@ -31,6 +31,8 @@ class Readouts:
     aim_range_deg: tuple = ()               # the directions the shot can give with the face
     engine_ms: float = 0.0                  # engine time spent this frame
     solve_ms: float = 0.0                   # last whole-shot solve
+    us_per_frame: float = float("nan")      # last whole-shot solve over the shot's frames
+    compare: dict = field(default_factory=dict)  # the compared solver's figures (bat_error_cm, max_grip_error_cm, us_per_frame)
     render_ms: float = 0.0
     frame_ms: float = 0.0
     fps: float = 0.0
@@ -81,11 +83,15 @@ class AppState:
     hit_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))   # (N,3) FK hit points
     bind_positions: np.ndarray | None = None                                   # (J,3)
     adapters: dict = field(default_factory=dict)      # shot index -> engine.adapt.Adapter
+    terrain: object = None                            # uneven ground drawn instead of the pitch (app.viewer.terrain)
+    learnt: object = None                             # engine.learnt_solver.LearntSolver of the library (trained on demand)
     ball_start: np.ndarray = field(default_factory=lambda: np.array([0.0, 100.0, 1800.0]))
     # the last good solve
     shot_index: int = -1
     desired_hit_point: np.ndarray | None = None       # (3,)
     adaptation: object = None                         # engine.adapt.Adaptation
+    compare_adaptation: object = None                 # the same shot and point by settings.compare_solver
+    compared_key: tuple | None = None                 # settings.compare_key() of compare_adaptation
     flight: np.ndarray | None = None                  # (K,3) ball after impact
     flight_dt: float = 1.0 / 30.0                     # seconds between flight samples
     time_blend: np.ndarray | None = None              # (F,) the time-based curve of Figure 2.3
@@ -98,6 +104,7 @@ class AppState:
     # this frame
     pose: Pose | None = None
     source_pose: Pose | None = None
+    compare_pose: Pose | None = None                  # the compared solver's pose (drawn as the ghost)
     ball_position: np.ndarray | None = None
     # interaction
     viewport: tuple = (0, 0, 1, 1)                    # (x, y, w, h) window pixels, top-left origin

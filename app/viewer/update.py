@@ -6,6 +6,7 @@ the viewport shows instead while it drives it. Playback has already moved ``sett
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -17,6 +18,7 @@ from engine import ballistics
 from engine.adapt import Adapter
 from engine.choice import BALL_START, choose_shot
 from engine.direction import aim
+from engine.learnt_solver import LEARNT_SOLVERS, LearntSolver
 from engine.rig import default_rig
 from engine.userlib import load_shots
 from engine.skeleton import bind_positions
@@ -45,6 +47,8 @@ def load_library(state: AppState, manifest=None) -> bool:
     state.hit_points = np.array([s.hit_point for s in shots], float)
     state.bind_positions = bind_positions(rig.skeleton)
     state.adapters.clear()
+    state.learnt = None                 # the learnt model trains on the new library when asked
+    state.compare_adaptation = state.compared_key = None
     state.source_azimuths.clear()
     state.shot_index = min(max(state.shot_index, 0), len(shots) - 1)
     state.solved_key = None
@@ -95,6 +99,7 @@ def update(state: AppState, settings: ViewerSettings, dt: float, pad_requests=()
     else:
         state.still_s += dt
         aim_step(state, settings)
+    compare_step(state, settings)
     t0 = time.perf_counter()
     pose_at(state, settings.frame)
     ball_at(state, settings.frame)
@@ -110,7 +115,7 @@ def aim_step(state: AppState, settings: ViewerSettings) -> None:
     """"Hit it that way": once the target holds still (AIM_SETTLE_S; the search costs ~0.1 s,
     too much for every frame of a drag), the shot re-solved with the face turned toward
     ``settings.direction``; back to the plain solve when the request is dropped."""
-    want = settings.aim_key()
+    want = settings.aim_key() if settings.solver not in LEARNT_SOLVERS else None  # the face is turned by CCD/DLS
     if want is None:
         if state.aimed_key is not None:
             solve(state, settings)
@@ -153,6 +158,43 @@ def choose(state: AppState, settings: ViewerSettings) -> tuple[int, np.ndarray]:
     return index, start + np.clip(t, 0.0, 1.0) * d
 
 
+def adapt_by(state: AppState, index: int, desired, adapt_settings, leave_out: bool):
+    """Shot ``index`` adapted to ``desired`` by ``adapt_settings.solver``; the learnt solvers
+    train their model here on first use (and per left-out shot), never in the panel."""
+    if adapt_settings.solver not in LEARNT_SOLVERS:
+        return adapter_for(state, index).adapt(desired, adapt_settings)
+    if state.learnt is None:
+        state.learnt = LearntSolver(state.rig, state.shots)
+    return state.learnt.adapt(adapter_for(state, index), desired, adapt_settings, leave_out)
+
+
+def compare_step(state: AppState, settings: ViewerSettings) -> None:
+    """The shot and point of the last solve adapted by ``settings.compare_solver`` too (the
+    ghost shows it); its figures in ``readouts.compare``. On an engine error: no comparison."""
+    key = settings.compare_key()
+    if key is None or state.adaptation is None:
+        state.compare_adaptation, state.compared_key, state.readouts.compare = None, None, {}
+        return
+    if key == state.compared_key or not solver_ready(state):
+        return
+    state.compared_key = key
+    t0 = time.perf_counter()
+    try:
+        a = adapt_by(state, state.shot_index, state.desired_hit_point,
+                     replace(settings.adapt_settings(), solver=settings.compare_solver), settings.learnt_leave_out)
+        check_finite(a)
+    except Exception as e:
+        state.report(f"engine: compare {settings.compare_solver}: {type(e).__name__}: {e}")
+        state.compare_adaptation, state.readouts.compare = None, {}
+        return
+    ms = (time.perf_counter() - t0) * 1e3
+    state.readouts.engine_ms += ms
+    state.compare_adaptation = a
+    state.readouts.compare = {"solver": settings.compare_solver, "bat_error_cm": float(a.bat_error_cm),
+                              "max_grip_error_cm": float(np.max(a.grip_error_cm)),
+                              "us_per_frame": ms * 1e3 / max(len(a.blend), 1)}
+
+
 def adapter_for(state: AppState, index: int):
     """The shot's ``engine.adapt.Adapter`` (built once: its __init__ precomputes)."""
     if state.adapters.get(index) is None:
@@ -182,7 +224,9 @@ def solve(state: AppState, settings: ViewerSettings, direction: float | None = N
     try:
         index, desired = choose(state, settings)
         if direction is None:
-            adaptation = adapter_for(state, index).adapt(desired, settings.adapt_settings())
+            t1 = time.perf_counter()
+            adaptation = adapt_by(state, index, desired, settings.adapt_settings(), settings.learnt_leave_out)
+            state.readouts.us_per_frame = (time.perf_counter() - t1) * 1e6 / max(len(adaptation.blend), 1)
         else:
             aimed = aim(state.rig, state.shots[index], desired, direction, settings.adapt_settings(),
                         state.ball_start)
@@ -278,6 +322,10 @@ def pose_at(state: AppState, frame: float) -> None:
     src_rot, src_pos = shot.fk
     state.source_pose = _interpolate(src_rot, src_pos, frame)
     state.pose_source = "adapted" if adaptation is not None else "source"
+    compare = state.compare_adaptation
+    state.compare_pose = None
+    if compare is not None and compare.global_positions.shape[0] == shot.num_frames:
+        state.compare_pose = _interpolate(compare.global_rotations, compare.global_positions, frame)
     if adaptation is not None and adaptation.global_positions.shape[0] == shot.num_frames:
         state.pose = _interpolate(adaptation.global_rotations, adaptation.global_positions, frame)
         f = int(round(frame))
