@@ -26,7 +26,7 @@ import numpy as np
 from . import ccd, quat
 from .adapt import Adaptation, AdaptSettings, check_point, check_settings
 from .adapt import SOLVERS as KERNEL_SOLVERS
-from .skeleton import forward_kinematics
+from .fk_nb import frames_fk
 
 if TYPE_CHECKING:       # engine.learnt_ik (scipy's k-means) loads when a model is trained: the
     from . import learnt_ik as L    # viewer imports this module for SOLVERS at its start
@@ -162,17 +162,25 @@ def looked_up(adapter, model: L.LimbModel, desired: np.ndarray, blend: np.ndarra
 
 def _pure(adapter, start: np.ndarray, desired: np.ndarray, blend: np.ndarray, settings: AdaptSettings) -> Adaptation:
     """The learnt pose as it is; the trail hand back on its source grip: CCD on the trail
-    arm (from the source's) for the wrist's position, then the hand turned to the grip."""
-    rig, local = adapter.rig, start.copy()
-    grot, gpos = forward_kinematics(adapter.parents, adapter.trans, local)
+    arm (from the source's) for the wrist's position, then the hand turned to the grip.
+    Frames of blend 0 keep the source's pose and FK; only the others are computed."""
+    local = start.copy()
+    grot, gpos = adapter.src_grot.copy(), adapter.src_gpos.copy()
     active = np.flatnonzero(blend > 0.0)
-    if settings.fix_right_hand and len(active):
-        ch = ccd.chain_arrays(rig, TRAIL_CHAIN)
-        t_pos, _ = grip_targets(adapter, grot, gpos)
-        solved, _, _ = ccd.solve(ch, grot[active, ch.parent], gpos[active, ch.parent], local[active][:, ch.joints],
-                                 t_pos[active], tolerance=settings.tolerance, iterations=settings.iterations)
-        local[np.ix_(active, ch.joints)] = solved
-        grot, gpos = _hand_on_grip(adapter, local, active)
+    if len(active):
+        sub = local[active]
+        g, p = _fk(adapter, active, sub)
+        if settings.fix_right_hand:
+            ch = ccd.chain_arrays(adapter.rig, TRAIL_CHAIN)
+            t_pos, _ = grip_targets(adapter, g, p, active)
+            sub[:, ch.joints] = ccd.solve(ch, g[:, ch.parent], p[:, ch.parent], sub[:, ch.joints], t_pos,
+                                          tolerance=settings.tolerance, iterations=settings.iterations)[0]
+            g, p = _fk(adapter, active, sub)
+            # the hand's own rotation turned to the grip (the wrist stays where CCD put it)
+            rh = adapter.rhand
+            sub[:, rh] = quat.mul(quat.conjugate(g[:, adapter.parents[rh]]), grip_targets(adapter, g, p, active)[1])
+            g, p = _fk(adapter, active, sub)
+        local[active], grot[active], gpos[active] = sub, g, p
     t_pos, t_rot = grip_targets(adapter, grot, gpos)
     rh = adapter.rhand
     return Adaptation(adapter.trans[:, 0].copy(), local, grot, gpos, blend.copy(),
@@ -182,18 +190,19 @@ def _pure(adapter, start: np.ndarray, desired: np.ndarray, blend: np.ndarray, se
                       quat.angle_between(grot[:, rh], t_rot))
 
 
-def _hand_on_grip(adapter, local: np.ndarray, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The trail hand turned to its grip's orientation on the ``active`` frames (its own
-    rotation: the wrist stays where CCD put it), in place; the pose's FK."""
-    grot, gpos = forward_kinematics(adapter.parents, adapter.trans, local)
-    _, t_rot = grip_targets(adapter, grot, gpos)
-    rh = adapter.rhand
-    parent = grot[active, adapter.parents[rh]]
-    local[active, rh] = quat.mul(quat.conjugate(parent), t_rot[active])
-    return forward_kinematics(adapter.parents, adapter.trans, local)
+def _fk(adapter, frames: np.ndarray, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Global rotations and positions of ``local (K, J, 4)``, the shot's ``frames (K,)``
+    (engine.fk_nb's compiled FK)."""
+    K, J = local.shape[:2]
+    rot, pos = np.empty((K, J, 4)), np.empty((K, J, 3))
+    frames_fk(adapter.parents, np.ascontiguousarray(adapter.trans[frames]), np.ascontiguousarray(local),
+              np.ones(J, np.bool_), rot, pos)
+    return rot, pos
 
 
-def grip_targets(adapter, grot: np.ndarray, gpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The trail hand's source grip ``(F, 3)``, ``(F, 4)`` carried by the pose's lead hand."""
+def grip_targets(adapter, grot: np.ndarray, gpos: np.ndarray, frames=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+    """The trail hand's source grip (position, rotation) carried by the pose's lead hand,
+    for poses ``grot``, ``gpos`` of the shot's ``frames`` (default: all)."""
     lh = adapter.lhand
-    return (gpos[:, lh] + quat.rotate(grot[:, lh], adapter.rel_pos), quat.mul(grot[:, lh], adapter.rel_rot))
+    return (gpos[:, lh] + quat.rotate(grot[:, lh], adapter.rel_pos[frames]),
+            quat.mul(grot[:, lh], adapter.rel_rot[frames]))
