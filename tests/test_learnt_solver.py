@@ -161,3 +161,21 @@ def test_cli_capture_learns_from_itself(tmp_path):
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
     assert d["bat_error_cm"] < 0.1 and d["learnt_training_shots"] == 1 and out.stat().st_size > 0
+
+
+def test_single_shot_library_with_leave_out_is_refused(tmp_path):
+    """A library of one capture: learnt trains on it; with --leave-out nothing is left to learn from."""
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    (folder / "golf.bvh").write_bytes((MOCAP / "cmu_63_02_golf_swing.bvh").read_bytes())
+    init = subprocess.run([sys.executable, "-c", "from app.cli import main; main()", "library", "init", str(folder)],
+                          capture_output=True, text=True, timeout=300)
+    assert init.returncode == 0, init.stderr
+    base = ["--library", str(folder), "--shot", "golf", "--hit", "-10", "92", "0", "--solver", "learnt"]
+    r = run_cli(*base, "--leave-out")
+    assert r.returncode == 2 and r.stdout == "" and len(r.stderr.strip().splitlines()) == 1
+    assert r.stderr.startswith("error") and "leave-out" in r.stderr
+    r = run_cli(*base)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert d["learnt_training_shots"] == 1 and np.isfinite(d["bat_error_cm"])

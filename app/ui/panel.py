@@ -236,7 +236,7 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
     imgui.separator_text("Readouts")
     r, t = state.readouts, state.timing.shown     # timings: quarter-second means
     if imgui.begin_table("readouts", 2, imgui.TableFlags_.sizing_stretch_prop):
-        rows = [("solver", f"{settings.solver}: {r.us_per_frame:.1f} us a frame"),
+        rows = [(settings.solver, f"{r.us_per_frame:.1f} us a frame"),
                 ("bat error at hit frame", f"{r.bat_error_cm:.3f} cm"),
                 ("grip error (this frame)", f"{r.grip_error_cm:.2f} cm  {r.grip_error_deg:.1f} deg"),
                 ("grip error (max)", f"{r.max_grip_error_cm:.2f} cm"),
@@ -248,8 +248,8 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
                 ("viewport shows", VIEWPORT_SHOWS.get(state.pose_source, state.pose_source))]
         c = r.compare
         if c:
-            rows.append((f"ghost: {c['solver']}", f"bat {c['bat_error_cm']:.3f} cm, grip {c['max_grip_error_cm']:.2f} cm,"
-                                                  f" {c['us_per_frame']:.1f} us a frame"))
+            rows += [(f"ghost: {c['solver']}", f"{c['us_per_frame']:.1f} us a frame"),
+                     ("ghost bat / grip", f"{c['bat_error_cm']:.2f} / {c['max_grip_error_cm']:.2f} cm")]
         if state.desired_hit_point is not None:
             d = state.desired_hit_point
             rows.append(("desired hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))

@@ -163,9 +163,15 @@ def adapt_by(state: AppState, index: int, desired, adapt_settings, leave_out: bo
     train their model here on first use (and per left-out shot), never in the panel."""
     if adapt_settings.solver not in LEARNT_SOLVERS:
         return adapter_for(state, index).adapt(desired, adapt_settings)
+    return learnt_for(state, index, leave_out).adapt(adapter_for(state, index), desired, adapt_settings, leave_out)
+
+
+def learnt_for(state: AppState, index: int, leave_out: bool) -> LearntSolver:
+    """The library's learnt solver with the model shot ``index`` needs trained."""
     if state.learnt is None:
         state.learnt = LearntSolver(state.rig, state.shots)
-    return state.learnt.adapt(adapter_for(state, index), desired, adapt_settings, leave_out)
+    state.learnt.model(state.shots[index].name if leave_out else None)
+    return state.learnt
 
 
 def compare_step(state: AppState, settings: ViewerSettings) -> None:
@@ -178,8 +184,10 @@ def compare_step(state: AppState, settings: ViewerSettings) -> None:
     if key == state.compared_key or not solver_ready(state):
         return
     state.compared_key = key
-    t0 = time.perf_counter()
     try:
+        if settings.compare_solver in LEARNT_SOLVERS:
+            learnt_for(state, state.shot_index, settings.learnt_leave_out)
+        t0 = time.perf_counter()
         a = adapt_by(state, state.shot_index, state.desired_hit_point,
                      replace(settings.adapt_settings(), solver=settings.compare_solver), settings.learnt_leave_out)
         check_finite(a)
@@ -224,6 +232,8 @@ def solve(state: AppState, settings: ViewerSettings, direction: float | None = N
     try:
         index, desired = choose(state, settings)
         if direction is None:
+            if settings.solver in LEARNT_SOLVERS:     # trained first: not in the us-a-frame figure
+                learnt_for(state, index, settings.learnt_leave_out)
             t1 = time.perf_counter()
             adaptation = adapt_by(state, index, desired, settings.adapt_settings(), settings.learnt_leave_out)
             state.readouts.us_per_frame = (time.perf_counter() - t1) * 1e6 / max(len(adaptation.blend), 1)
