@@ -81,3 +81,12 @@ def test_analyse_solvers_leave_out_needs_two_shots():
     r = subprocess.run(CLI + ["--solvers", "--shot", "pull", "--leave-out", "--offsets", "20"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and r.stderr.startswith("error")
+
+
+def test_bench_reports_the_four_solvers(rig):
+    from app.cli.bench import solver_figures
+    fig = solver_figures(rig)["median_over_shots"]
+    assert list(fig) == list(SOLVERS)
+    for s in SOLVERS:
+        assert all(isinstance(fig[s][m], (int, float)) and np.isfinite(fig[s][m]) for m in METRICS)
+        assert fig[s]["us_per_frame"] > 0

@@ -28,6 +28,7 @@ from app.viewer.settings import SOLVERS, ViewerSettings
 from app.viewer.state import AppState
 from app.viewer.update import load_library, solve
 from engine import adapt, cleanup
+from engine.learnt_solver import LEARNT_SOLVERS
 
 
 class EngineWarmup:
@@ -72,9 +73,12 @@ class EngineWarmup:
             self.seconds = time.perf_counter() - t0
 
     def _warm_solver(self) -> None:
-        """Both solvers on the shot the settings choose: every kernel a solve runs, compiled."""
+        """CCD and DLS on the shot the settings choose: every kernel a solve runs, compiled;
+        a learnt solver too when it is the one in use (its model trains on the scratch
+        state: not every start pays for that)."""
         state, settings = self._state, self._settings
-        for solver in sorted(SOLVERS, key=lambda name: name != settings.solver):   # the one in use first
+        warm = [s for s in SOLVERS if s not in LEARNT_SOLVERS or s == settings.solver]
+        for solver in sorted(warm, key=lambda name: name != settings.solver):   # the one in use first
             settings.solver = solver
             solve(state, settings)
 
