@@ -32,9 +32,27 @@ ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
 GRIP_CM = 0.05          # right hand further than this from its grip ...
 GRIP_RAD = math.radians(0.5)  # ... or turned more than this: solve both arms together
+FACE_LENGTH = 30.0      # cm per unit of face-normal error: weighs the bat face against its position
+FACE_TOL = math.radians(0.05)  # the face is "there" (chord of the unit normals ~ angle)
+FACE_ITER = 30          # Newton steps at most (crawling along a limit: as near as it gets)
+FACES = ("keep", "free")
+NO_FACE = (0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # both_arms_solve's face term, off
 SOLVERS = ("ccd", "dls")
 TWISTS = ("follow", "lead")
 TWIST_COLUMN = 2        # ZYX Euler columns z, y, x: x is the twist about the bone in the arms
+
+
+def face_weights(n: int, torso: int) -> np.ndarray:
+    """Weights (1 / stiffness) of the chain's joints, root-most first, in the face-keeping
+    solve (dissertation 1.10, 4.2): rising toward the hand (squared), so the roll joints
+    turn the face first, and a tenth of that for the ``torso`` joints at the chain's root
+    (up to the one the right arm hangs from), which turn only where the arm's limits cannot.
+    Measured over the 135 offsets of ``analyse --directions``: the spine's largest angle
+    change at the hit frame median 4.2 deg (position only 4.1; the torso at the arm's
+    weights 5.7, the arm alone then the torso 4.3 at 1.4x the time)."""
+    w = np.linspace(0.25, 1.0, n) ** 2
+    w[:torso] *= 0.1
+    return np.ascontiguousarray(w)
 
 
 def twist_only(free: np.ndarray) -> np.ndarray:
@@ -56,6 +74,16 @@ class AdaptSettings:
     # 30, against 40 and 25 when they follow). DLS spreads the motion by its stiffness
     # weights and keeps the face already (max 34 deg), and needs the twist to reach.
     twist: str = "follow"
+    # "keep": after the position solve, damped Newton on the bat's position and face
+    # normal turns the face back to the source's at the hit frame (the other adapted frames
+    # toward it by the importance blend); "free": position only.
+    face: str = "keep"
+    # kept face: degrees it turns (about the vertical, carried by the blend) per cm the hit
+    # point moves toward the off side, so the ball goes further that way (Fig. 2.6)
+    face_turn: float = 0.1
+    # kept face: degrees it tilts up (+) or down at the hit (carried by the blend): the
+    # ball's elevation (engine.direction)
+    face_tilt: float = 0.0
 
 
 @dataclass
@@ -144,27 +172,13 @@ def _grip_residual(eff, last, target_pos, target_rot, length, r):
 
 
 @njit(cache=True)
-def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, damping, max_step,
-              cols, dofs, A, x):
-    """One damped least-squares step on position AND orientation of the last
-    chain joint (6 rows: 3 position, 3 rotation scaled by ``length`` cm/rad).
-    Limits by clamping and freezing, as :func:`engine.ccd.jacobian_step`."""
-    n = local.shape[0]
-    m = 0
-    for k in range(n):
-        for c in range(3):
-            if free[k, c]:
-                a = hinge_axis(prot, g_rot, euler, k, c)
-                col = cross(a, vsub(eff, v_at(g_pos, k)))
-                cols[m, 0] = col[0]
-                cols[m, 1] = col[1]
-                cols[m, 2] = col[2]
-                cols[m, 3] = a[0] * length
-                cols[m, 4] = a[1] * length
-                cols[m, 5] = a[2] * length
-                dofs[m, 0] = k
-                dofs[m, 1] = c
-                m += 1
+def lsq6_apply(cols, dofs, m, r, euler, lo, hi, damping, max_step, A, x):
+    """Damped least squares on 6 rows for the m columns ``cols (m, 7)`` of the
+    Euler angles ``dofs (m, 2)`` (joint, column), applied to ``euler`` in place:
+    ``d = W J^T (J W J^T + damping^2 I)^-1 r`` with the Jacobian's columns already
+    scaled by sqrt(W) and sqrt(W) in ``cols[:, 6]`` (per-joint stiffness 1/W); the
+    largest change capped at ``max_step``, a column that would cross its limit
+    clamped there and frozen and the rest re-solved (up to three rounds)."""
     for _round in range(3):
         for i in range(6):
             for j in range(6):
@@ -182,7 +196,7 @@ def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, da
                 d = 0.0
                 for i in range(6):
                     d += cols[q, i] * x[i]
-                biggest = max(biggest, abs(d))
+                biggest = max(biggest, abs(d * cols[q, 6]))
         scale = 1.0 if biggest <= max_step else max_step / biggest
         clamped = False
         for q in range(m):
@@ -193,10 +207,10 @@ def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, da
             d = 0.0
             for i in range(6):
                 d += cols[q, i] * x[i]
-            want = euler[k, c] + d * scale
+            want = euler[k, c] + d * cols[q, 6] * scale
             got = clamp_angle(want, lo[k, c], hi[k, c])
             if got != want:
-                gd = got - euler[k, c]
+                gd = (got - euler[k, c]) / cols[q, 6]
                 euler[k, c] = got
                 for i in range(6):
                     r[i] -= cols[q, i] * gd
@@ -209,11 +223,105 @@ def pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, da
                 d = 0.0
                 for i in range(6):
                     d += cols[q, i] * x[i]
-                euler[dofs[q, 0], dofs[q, 1]] += d * scale
+                euler[dofs[q, 0], dofs[q, 1]] += d * cols[q, 6] * scale
             break
+
+
+@njit(cache=True)
+def _face_residual(eff, normal, target_pos, target_n, length, r):
+    """6-vector residual (position cm, face normal difference * length) into r; returns its norm."""
+    t = 0.0
+    for i in range(3):
+        r[i] = target_pos[i] - eff[i]
+        r[3 + i] = length * (target_n[i] - normal[i])
+        t += r[i] * r[i] + r[3 + i] * r[3 + i]
+    return math.sqrt(t)
+
+
+@njit(cache=True)
+def _end_residual(goal, eff, last, r):
+    """The 6-residual of the chain's end against ``goal`` into r: (its norm, position
+    error cm, turn error). goal = (face, target_pos, target_rot, target_n, n_last, length):
+    the effector's position and the last joint's whole rotation (face False: rotation
+    vector * length, error in rad), or its face normal (face True: the normal ``n_last``
+    in the last joint's frame onto ``target_n``, difference * length, error its chord)."""
+    face, target_pos, target_rot, target_n, n_last, length = goal
+    if face:
+        nrm = qrot(last, n_last)
+        res = _face_residual(eff, nrm, target_pos, target_n, length, r)
+        turn = vnorm(vsub(nrm, target_n))
+    else:
+        res = _grip_residual(eff, last, target_pos, target_rot, length, r)
+        turn = q_angle(last, target_rot)
+    return res, vnorm(vsub(eff, target_pos)), turn
+
+
+@njit(cache=True)
+def _end_columns(prot, g_rot, g_pos, euler, free, weight, eff, goal, cols, dofs):
+    """Jacobian columns (scaled by sqrt(weight), sqrt(weight) in column 6) of the free
+    Euler angles with a weight against :func:`_end_residual`'s rows; returns how many."""
+    face, _p, _q, _t, n_last, length = goal
+    n = euler.shape[0]
+    nrm = qrot(q_at(g_rot, n - 1), n_last)
+    m = 0
     for k in range(n):
-        if free[k, 0] or free[k, 1] or free[k, 2]:
-            q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+        for c in range(3):
+            if free[k, c] and weight[k] > 0.0:
+                a = hinge_axis(prot, g_rot, euler, k, c)
+                cp = cross(a, vsub(eff, v_at(g_pos, k)))
+                turn = cross(a, nrm) if face else a
+                sw = math.sqrt(weight[k])
+                for i in range(3):
+                    cols[m, i] = sw * cp[i]
+                    cols[m, 3 + i] = sw * length * turn[i]
+                cols[m, 6] = sw
+                dofs[m, 0] = k
+                dofs[m, 1] = c
+                m += 1
+    return m
+
+
+@njit(cache=True)
+def _end_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, goal, tol, ori_tol,
+               max_iter, stall, work):
+    """Damped Newton (Levenberg-Marquardt) on :func:`_end_residual` from the current pose;
+    a step that does not help is undone and damped harder; stops when both errors are in
+    tolerance or a step gains less than ``stall`` of the residual (held by a limit).
+    work = (g_rot, g_pos, cols (3n,7), dofs, A (6,6), x, r, bak_l, bak_e).
+    Returns (position error cm, turn error)."""
+    g_rot, g_pos, cols, dofs, A, x, r, bak_l, bak_e = work
+    n = offsets.shape[0]
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    res, pe, oe = _end_residual(goal, eff, q_at(g_rot, n - 1), r)
+    lam = 0.5
+    for _ in range(max_iter):
+        if pe < tol and oe < ori_tol:
+            break
+        bak_l[:n] = local
+        bak_e[:n] = euler
+        m = _end_columns(prot, g_rot, g_pos, euler, free, weight, eff, goal, cols, dofs)
+        lsq6_apply(cols, dofs, m, r, euler, lo, hi, lam, 0.25, A, x)
+        for k in range(n):
+            if free[k, 0] or free[k, 1] or free[k, 2]:
+                q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        res2, pe2, oe2 = _end_residual(goal, eff2, q_at(g_rot, n - 1), r)
+        if not res2 < res:
+            local[:] = bak_l[:n]
+            euler[:] = bak_e[:n]
+            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+            res, pe, oe = _end_residual(goal, eff, q_at(g_rot, n - 1), r)
+            lam *= 4.0
+            if lam > 1e4:
+                break
+            continue
+        gain = res - res2
+        eff = eff2
+        res, pe, oe = res2, pe2, oe2
+        lam = max(0.05, lam * 0.5)
+        if gain < stall * res:       # stalled against a limit: as near as it gets
+            break
+    return pe, oe
 
 
 @njit(cache=True)
@@ -222,38 +330,26 @@ def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_
     """Damped Newton on position and orientation of the chain's last joint
     from the current pose (after the position solve and the twist/hand finish
     could not get the orientation). Returns (position error, angle error)."""
-    n = offsets.shape[0]
-    length = GRIP_LENGTH
-    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-    res = _grip_residual(eff, q_at(g_rot, n - 1), target_pos, target_rot, length, r)
-    lam = 0.5
-    for _ in range(max_iter):
-        pe = vnorm(vsub(eff, target_pos))
-        oe = q_angle(q_at(g_rot, n - 1), target_rot)
-        if pe < tol and oe < ori_tol:
-            break
-        bak_l[:n] = local
-        bak_e[:n] = euler
-        pose_step(prot, local, euler, free, lo, hi, eff, r, g_rot, g_pos, length, lam, 0.25,
-                  cols6, dofs, A, x)
-        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-        res2 = _grip_residual(eff2, q_at(g_rot, n - 1), target_pos, target_rot, length, r)
-        if not res2 < res:
-            local[:] = bak_l[:n]
-            euler[:] = bak_e[:n]
-            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-            res = _grip_residual(eff, q_at(g_rot, n - 1), target_pos, target_rot, length, r)
-            lam *= 4.0
-            if lam > 1e4:
-                break
-            continue
-        gain = res - res2
-        eff = eff2
-        res = res2
-        lam = max(0.05, lam * 0.5)
-        if gain < 1e-3 * res:       # stalled against a limit: as near as it gets
-            break
-    return vnorm(vsub(eff, target_pos)), q_angle(q_at(g_rot, n - 1), target_rot)
+    goal = (False, (target_pos[0], target_pos[1], target_pos[2]),
+            (target_rot[0], target_rot[1], target_rot[2], target_rot[3]), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+            GRIP_LENGTH)
+    return _end_solve(prot, ppos, offsets, eff_off, local, euler, free, np.ones(offsets.shape[0]), lo, hi,
+                      goal, tol, ori_tol, max_iter, 1e-3, (g_rot, g_pos, cols6, dofs, A, x, r, bak_l, bak_e))
+
+
+@njit(cache=True)
+def face_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, target_pos, target_n,
+               n_last, tol, max_iter, work):
+    """Damped Newton on the effector's position AND the bat face: the normal
+    ``n_last`` (in the last chain joint's frame) turned onto the world ``target_n``,
+    from the current (position-solved) pose, by the free joints with a weight
+    (1 / stiffness; 0: held); the roll joints, which position-only CCD leaves alone,
+    turn the face back. work as :func:`_end_solve`'s. Returns (position error cm,
+    face error: the chord between the unit normals, ~rad)."""
+    goal = (True, (target_pos[0], target_pos[1], target_pos[2]), (1.0, 0.0, 0.0, 0.0),
+            (target_n[0], target_n[1], target_n[2]), (n_last[0], n_last[1], n_last[2]), FACE_LENGTH)
+    return _end_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, goal, tol, FACE_TOL,
+                      max_iter, 1e-4, work)
 
 
 @njit(cache=True)
@@ -282,9 +378,10 @@ def _solve_spd(A, r, x, R):
 
 @njit(cache=True)
 def _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff, loc_r,
-                   gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, length, r):
-    """FK of both arms and the 9-residual (bat, grip position, grip rotation);
-    returns (bat, right hand, grip target position, its norm)."""
+                   gr_rot, gr_pos, handle, face, rel_p, rel_q, bat_w, length, r):
+    """FK of both arms and the 12-residual (bat, grip position, grip rotation, bat face:
+    ``face`` = (weight, target normal, normal in the left hand's frame), weight 0: no face);
+    returns (grip target position, its norm)."""
     nl = l_off.shape[0]
     nr = r_off.shape[0]
     bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
@@ -298,20 +395,25 @@ def _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, 
     _grip_residual(rh, q_at(gr_rot, nr - 1), t_pos, t_rot, length, tmp)
     for i in range(6):
         r[3 + i] = tmp[i]
+    fw, n_tgt, n_last = face
+    nrm = qrot(g_lh, n_last)
+    for i in range(3):
+        r[9 + i] = fw * (n_tgt[i] - nrm[i])
     t = 0.0
-    for i in range(9):
+    for i in range(12):
         t += r[i] * r[i]
     return t_pos, math.sqrt(t)
 
 
 @njit(cache=True)
 def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                    r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, rel_p, rel_q,
+                    r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, face, rel_p, rel_q,
                     tol, ori_tol, max_iter):
     """Damped Newton on both arm chains at once: the bat on its handle AND the
     right hand on its grip (the torso joints shared by both chains can then
-    lean to give the right arm its reach). Used when the right arm alone cannot
-    get back to the grip."""
+    lean to give the right arm its reach), and, with a face weight (``face``, as
+    :func:`_both_residual`), the bat face on its target. Used when the right arm
+    alone cannot get back to the grip. Returns the grip's (position cm, angle rad) error."""
     nl = l_off.shape[0]
     nr = r_off.shape[0]
     M = 3 * (nl + nr)
@@ -319,11 +421,12 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
     gl_pos = np.empty((nl, 3))
     gr_rot = np.empty((nr, 4))
     gr_pos = np.empty((nr, 3))
-    cols = np.empty((M, 9))
+    R = 12 if face[0] > 0.0 else 9     # rows solved: the face's three only when it is kept
+    cols = np.zeros((M, 12))
     dofs = np.empty((M, 3), np.int64)
-    A = np.empty((9, 9))
-    x = np.empty(9)
-    r = np.empty(9)
+    A = np.empty((12, 12))
+    x = np.empty(12)
+    r = np.empty(12)
     bl = np.empty((nl, 4))
     be = np.empty((nl, 3))
     br = np.empty((nr, 4))
@@ -331,13 +434,14 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
     bat_w = 10.0        # the bat on the ball matters most
     L = GRIP_LENGTH
     t_pos, res = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff,
-                                loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+                                loc_r, gr_rot, gr_pos, handle, face, rel_p, rel_q, bat_w, L, r)
     lam = 0.5
     for _ in range(max_iter):
         bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / bat_w
         pos_e = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
         ori_e = math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / L
-        if bat_e < tol and pos_e < tol and ori_e < ori_tol:
+        face_e = math.sqrt(r[9] * r[9] + r[10] * r[10] + r[11] * r[11]) / max(face[0], 1e-300)
+        if bat_e < tol and pos_e < tol and ori_e < ori_tol and (R == 9 or face_e < FACE_TOL):
             break
         bl[:] = loc_l
         be[:] = eul_l
@@ -347,6 +451,7 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
         rh = v_at(gr_pos, nr - 1)
         rv = (r[6] / L, r[7] / L, r[8] / L)
         rpos = (r[3], r[4], r[5])
+        nrm = qrot(q_at(gl_rot, nl - 1), face[2])
         m = 0
         for k in range(nl):
             for c in range(3):
@@ -364,10 +469,12 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
                     cg = cross(a, vsub(t_pos, pk))
                     cg = (-cg[0], -cg[1], -cg[2])
                     co = (-L * a[0], -L * a[1], -L * a[2])
+                cn = cross(a, nrm)
                 for i in range(3):
                     cols[m, i] = bat_w * cb[i]
                     cols[m, 3 + i] = cg[i]
                     cols[m, 6 + i] = co[i]
+                    cols[m, 9 + i] = face[0] * cn[i]
                 dofs[m, 0] = 0
                 dofs[m, 1] = k
                 dofs[m, 2] = c
@@ -388,23 +495,23 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
                 dofs[m, 2] = c
                 m += 1
         for _round in range(3):
-            for i in range(9):
-                for j in range(9):
+            for i in range(R):
+                for j in range(R):
                     A[i, j] = lam * lam if i == j else 0.0
             for q in range(m):
                 if dofs[q, 0] < 0:
                     continue
-                for i in range(9):
+                for i in range(R):
                     ci = cols[q, i]
                     if ci != 0.0:
-                        for j in range(9):
+                        for j in range(R):
                             A[i, j] += ci * cols[q, j]
-            _solve_spd(A, r, x, 9)
+            _solve_spd(A, r, x, R)
             biggest = 0.0
             for q in range(m):
                 if dofs[q, 0] >= 0:
                     d = 0.0
-                    for i in range(9):
+                    for i in range(R):
                         d += cols[q, i] * x[i]
                     biggest = max(biggest, abs(d))
             scale = 1.0 if biggest <= 0.25 else 0.25 / biggest
@@ -413,7 +520,7 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
                 if dofs[q, 0] < 0:
                     continue
                 d = 0.0
-                for i in range(9):
+                for i in range(R):
                     d += cols[q, i] * x[i]
                 k = dofs[q, 1]
                 c = dofs[q, 2]
@@ -430,7 +537,7 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
                         gd = got - eul_r[k, c]
                         eul_r[k, c] = got
                 if got != want:
-                    for i in range(9):
+                    for i in range(R):
                         r[i] -= cols[q, i] * gd
                     dofs[q, 0] = -1
                     clamped = True
@@ -439,7 +546,7 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
                     if dofs[q, 0] < 0:
                         continue
                     d = 0.0
-                    for i in range(9):
+                    for i in range(R):
                         d += cols[q, i] * x[i]
                     if dofs[q, 0] == 0:
                         eul_l[dofs[q, 1], dofs[q, 2]] += d * scale
@@ -453,14 +560,14 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
             if r_free[k, 0] or r_free[k, 1] or r_free[k, 2]:
                 q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
         t_pos2, res2 = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
-                                      r_eoff, loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+                                      r_eoff, loc_r, gr_rot, gr_pos, handle, face, rel_p, rel_q, bat_w, L, r)
         if not res2 < res:
             loc_l[:] = bl
             eul_l[:] = be
             loc_r[:] = br
             eul_r[:] = bre
             t_pos, res = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
-                                        r_eoff, loc_r, gr_rot, gr_pos, handle, rel_p, rel_q, bat_w, L, r)
+                                        r_eoff, loc_r, gr_rot, gr_pos, handle, face, rel_p, rel_q, bat_w, L, r)
             lam *= 4.0
             if lam > 1e4:
                 break
@@ -471,6 +578,17 @@ def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
         lam = max(0.05, lam * 0.5)
         if gain < 1e-3 * res:
             break
+    return math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5]), math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / L
+
+
+@njit(cache=True)
+def _turn_by(turn, share):
+    """Quaternion of the rotation vector ``turn (3,)`` times ``share``."""
+    a = math.sqrt(turn[0] * turn[0] + turn[1] * turn[1] + turn[2] * turn[2])
+    if a < 1e-15:
+        return (1.0, 0.0, 0.0, 0.0)
+    s = math.sin(0.5 * a * share) / a
+    return (math.cos(0.5 * a * share), turn[0] * s, turn[1] * s, turn[2] * s)
 
 
 @njit(cache=True)
@@ -500,8 +618,12 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                   lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
                   rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w,
                   rel_pos, rel_rot, rp, fix_right, solver, tol, max_iter, damping, ori_tol,
-                  out_local, out_grot, out_gpos, out_blend, out_handle, out_err, out_gcm, out_gdeg):
-    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1."""
+                  face, out_local, out_grot, out_gpos, out_blend, out_handle, out_err, out_gcm, out_gdeg):
+    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1.
+    face = (keep, free (nl,3), normal in the bat's frame (3,), turn (3,)): when kept, after
+    the position solve the left arm's ``free`` joints turn the bat face to the source's,
+    turned by the rotation vector ``turn`` times the frame's blend."""
+    keep_face, face_free, face_w, face_local, face_turn = face
     nl = lj.shape[0]
     nr = rj.shape[0]
     nmax = max(nl, nr)
@@ -509,7 +631,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
     loc_l = np.empty((nl, 4))
     eul_l = np.empty((nl, 3))
     src_l = np.empty((nl, 3))
-    cols6 = np.empty((3 * nmax, 6))
+    cols6 = np.empty((3 * nmax, 7))
     A6 = np.empty((6, 6))
     x6 = np.empty(6)
     r6 = np.empty(6)
@@ -524,6 +646,8 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
     b_h = (src_gpos[hit, bat, 0], src_gpos[hit, bat, 1], src_gpos[hit, bat, 2])
     r_h = (src_grot[hit, bat, 0], src_grot[hit, bat, 1], src_grot[hit, bat, 2], src_grot[hit, bat, 3])
     offset = qrot(qconj(r_h), vsub((desired[0], desired[1], desired[2]), b_h))
+    work = (g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+    n_bat = (face_local[0], face_local[1], face_local[2])
     for i in range(frames.shape[0]):
         f = frames[i]
         out_local[i] = src_local[f]
@@ -550,6 +674,28 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
         err, its = _solve_chain(solver, prot, ppos, l_off, l_eoff, loc_l, eul_l, src_l, l_free, l_kind,
                                 lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot, g_pos,
                                 cols, dofs, bak_l, bak_e)
+        # the source's face at this frame (turned with the hit point), and in the hand's frame
+        n_src = qrot(r_f, n_bat)
+        n_last = qrot(qconj(q_at(src_grot[f], lhand)), n_src)
+        n_tgt = qrot(_turn_by(face_turn, blend), n_src)
+        if keep_face and its > 0:
+            # the face the position solve left, moved toward the kept one by the blend (all
+            # the way at the hit; over the analyse --style offsets the upper-body style
+            # distance 1.84 -> 1.76, position only 1.37)
+            chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
+            n_pos = qrot(q_at(g_rot, nl - 1), n_last)
+            wb = blend
+            n_b = vadd((n_pos[0] * (1.0 - wb), n_pos[1] * (1.0 - wb), n_pos[2] * (1.0 - wb)),
+                       (n_tgt[0] * wb, n_tgt[1] * wb, n_tgt[2] * wb))
+            nb = vnorm(n_b)
+            if nb > 1e-9:
+                n_tgt = (n_b[0] / nb, n_b[1] / nb, n_b[2] / nb)
+            pe, _ = face_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, face_free, face_w, lo_l, hi_l, handle,
+                               n_tgt, n_last, tol, FACE_ITER, work)
+            if not pe < tol:        # the face held by a limit kept the bat off: the bat first
+                _solve_chain(solver, prot, ppos, l_off, l_eoff, loc_l, eul_l, src_l, l_free, l_kind,
+                             lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot, g_pos,
+                             cols, dofs, bak_l, bak_e)
         if its > 0:
             for k in range(nl):
                 for c in range(4):
@@ -592,16 +738,24 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                                         t_rot, tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6,
                                         bak_l, bak_e)
                     if (pe > GRIP_CM or oe > GRIP_RAD) and rp >= 0:
-                        # out of the right arm's reach: let the torso help
+                        # out of the right arm's reach: let the torso help (and the roll
+                        # joints, with the face kept)
+                        both_free = face_free if keep_face else l_free
                         pj = parents[lj[0]]
-                        both_arms_solve((src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2],
-                                         src_grot[f, pj, 3]),
-                                        (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2]),
-                                        l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                                        r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle,
-                                        (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2]),
-                                        (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]),
-                                        tol, ori_tol, 40)
+                        fw = FACE_LENGTH if keep_face else 0.0
+                        for _try in range(2):   # the grip before the face: without it if they clash
+                            pe, oe = both_arms_solve((src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2],
+                                                      src_grot[f, pj, 3]),
+                                                     (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2]),
+                                                     l_off, l_eoff, loc_l, eul_l, both_free, lo_l, hi_l, rp,
+                                                     r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle,
+                                                     (fw, n_tgt, n_last),
+                                                     (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2]),
+                                                     (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]),
+                                                     tol, ori_tol, 40)
+                            if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
+                                break
+                            fw = 0.0
                         prl = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
                         ppl = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
                         b2 = chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
@@ -674,6 +828,8 @@ def check_settings(s: AdaptSettings) -> None:
         raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {s.solver!r}")
     if s.wrist_dof not in (0, 2):
         raise ValueError(f"wrist DOF must be 0 or 2, got {s.wrist_dof}")
+    if s.face not in FACES:
+        raise ValueError(f"face must be one of {', '.join(FACES)}, got {s.face!r}")
     if s.twist not in TWISTS:
         raise ValueError(f"twist must be one of {', '.join(TWISTS)}, got {s.twist!r}")
     if not (math.isfinite(s.falloff) and s.falloff > 0):
@@ -724,8 +880,11 @@ class Adapter:
         # where the right arm hangs off the left-arm chain (Spine2), for the two-arm solve
         rpar = int(self.parents[right.joints[0]])
         self.right_parent_in_left = list(left.joints).index(rpar) if rpar in list(left.joints) else -1
+        self.face_w = face_weights(len(left.joints), self.right_parent_in_left + 1)
         self.hit_point = self.src_gpos[self.hit_frame, self.bat].copy()
         self.bat_positions = self.src_gpos[:, self.bat]
+        n = np.asarray(rig.bat["face_normal"], float)
+        self.face_local = n / np.linalg.norm(n)
 
     @property
     def max_falloff(self) -> float:
@@ -754,6 +913,27 @@ class Adapter:
                 blend = blend * (t * t * (3.0 - 2.0 * t))
         return blend
 
+    def face_turn(self, desired: np.ndarray, settings: AdaptSettings) -> np.ndarray:
+        """Rotation vector (3,) of the kept face at the hit frame against the source's:
+        ``face_turn`` deg per cm of the hit point's move toward the off side (-x) about
+        the vertical, then ``face_tilt`` deg up about the horizontal across the face."""
+        off_cm = -(float(desired[0]) - float(self.hit_point[0]))
+        yaw = -math.radians(settings.face_turn * off_cm)
+        if settings.face_tilt == 0.0:
+            return np.array([0.0, yaw, 0.0])        # the fast path: scrubbing calls this every frame
+        across = np.cross(self.source_face(), [0.0, 1.0, 0.0])
+        if np.linalg.norm(across) < 1e-9:
+            return np.array([0.0, yaw, 0.0])
+        tilt = quat.from_axis_angle(across / np.linalg.norm(across), math.radians(settings.face_tilt))
+        q = quat.mul(tilt, quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), yaw))
+        q = q if q[0] >= 0 else -q
+        s = float(np.linalg.norm(q[1:]))
+        return np.zeros(3) if s < 1e-15 else q[1:] / s * 2.0 * math.atan2(s, q[0])
+
+    def source_face(self) -> np.ndarray:
+        """The source's world face normal (3,) at the hit frame."""
+        return quat.rotate(self.src_grot[self.hit_frame, self.bat], self.face_local)
+
     def _blend_for(self, falloff: float) -> np.ndarray:
         # cached: scrubbing calls adapt_frame every frame with the same falloff
         if self._blend_cache[0] != falloff:
@@ -775,7 +955,9 @@ class Adapter:
                     free, kind = free & ~roll[:, None], np.where(roll, KIND_NONE, kind)
                 out += [ch.joints, ch.offsets, ch.eff_off, np.ascontiguousarray(free), np.ascontiguousarray(kind),
                         ch.lo, ch.hi, np.ascontiguousarray(w, float)]
-            self._chains[key] = tuple(out)
+                if name == "left_arm":
+                    face_free = np.ascontiguousarray(ch.free)     # the roll joints too
+            self._chains[key] = (tuple(out), face_free)
         return self._chains[key]
 
     def _start_pose(self, start) -> tuple[np.ndarray, np.ndarray]:
@@ -797,13 +979,15 @@ class Adapter:
         out = (np.empty((K, J, 4)), np.empty((K, J, 4)), np.empty((K, J, 3)), np.empty(K),
                np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
         start_local, start_euler = self._start_pose(start)
+        chains, face_free = self._chain_args(settings)
         _adapt_frames(frames, self.hit_frame, p, self._blend_for(float(settings.falloff)), self.parents, self.trans,
                       start_local, self.src_grot, self.src_gpos, start_euler,
                       self.subtree_l, self.subtree_r, self.bat, self.lhand,
-                      *self._chain_args(settings),
+                      *chains,
                       self.rel_pos, self.rel_rot, self.right_parent_in_left, bool(settings.fix_right_hand),
                       SOLVERS.index(settings.solver), float(settings.tolerance), int(settings.iterations),
-                      DAMPING, ORIENT_TOL, *out)
+                      DAMPING, ORIENT_TOL, (settings.face == "keep", face_free, self.face_w, self.face_local,
+                                            self.face_turn(p, settings)), *out)
         return out, p
 
     def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None) -> Adaptation:

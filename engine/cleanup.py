@@ -214,7 +214,7 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
 # ------------------------------------------------- right hand, compiled path
 from numba import njit
 
-from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, ORIENT_TOL, \
+from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, NO_FACE, ORIENT_TOL, \
     both_arms_solve, grip_solve, orient_finish
 from .ccd import ccd_frame, chain_arrays, chain_scratch, limit_euler
 from .fk_nb import chain_fk, frames_fk
@@ -337,7 +337,7 @@ def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
     handle = bat0
     for _ in range(rounds):
         both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                        r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, rel_p, rel_q,
+                        r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, NO_FACE, rel_p, rel_q,
                         tol, ori_tol, 40)
         bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
                                  r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
@@ -380,7 +380,7 @@ def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_
     gr_rot = np.empty((nr, 4))
     gr_pos = np.empty((nr, 3))
     cols = np.empty((3 * nmax, 3))
-    cols6 = np.empty((3 * nmax, 6))
+    cols6 = np.empty((3 * nmax, 7))
     dofs = np.empty((3 * nmax, 2), np.int64)
     A6 = np.empty((6, 6))
     x6 = np.empty(6)

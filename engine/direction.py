@@ -10,6 +10,12 @@ style; the adaptation (CCD, roll joints following) then puts the bat back on the
 point. ``theta`` is searched for the requested azimuth within the joint's limits and
 ``MAX_TWIST_DEG`` of the source's twist; a request out of reach gets the closest
 direction the shot can give, and says so.
+
+The elevation (``elevation_deg``) is set by tilting the kept face (AdaptSettings.face_tilt:
+the face normal turned up or down about the horizontal across it, carried by the blend;
+the arm's limits bound what it can give): the tilt is searched within ``MAX_TILT_DEG``
+for the requested elevation at the twist found, then the twist again for the azimuth at
+that tilt (a tilt moves the azimuth a little, a twist the elevation).
 """
 from __future__ import annotations
 
@@ -22,6 +28,7 @@ from .adapt import TWIST_COLUMN, Adaptation, AdaptSettings, Adapter, twist_only
 from .ccd import limit_euler
 
 MAX_TWIST_DEG = 45.0      # extra forearm twist at the hit: further would no longer read as the same shot
+MAX_TILT_DEG = 30.0       # face tilted up or down at the hit, for the elevation
 COARSE_STEPS = 19         # the twist range sampled before refining
 REFINE_STEPS = 12         # golden-section steps around the best sample (~0.1 deg)
 REACHED_DEG = 3.0         # closer than this to the request counts as reached
@@ -35,6 +42,11 @@ class Aim:
     requested_deg: float
     reached: bool             # within REACHED_DEG of the request
     range_deg: tuple          # the (min, max) azimuth the twist range gives with the face
+    elevation_deg: float = float("nan")         # where the ball goes, up from the ground
+    requested_elevation_deg: float | None = None  # None: no elevation asked (no tilt)
+    elevation_reached: bool | None = None       # within REACHED_DEG of the requested elevation
+    elevation_range_deg: tuple = ()             # the (min, max) elevation the tilt range gives
+    tilt_deg: float = 0.0                       # the face tilt at the hit frame
 
 
 def twist_joint(rig, wrist_dof: int = 0) -> int:
@@ -65,42 +77,66 @@ def _twist_range(rig, shot, joint: int) -> tuple[float, float]:
     return (np.radians(max(lo - x, -MAX_TWIST_DEG)), np.radians(min(hi - x, MAX_TWIST_DEG)))
 
 
+def _minimise(miss, lo: float, hi: float):
+    """The argument in [lo, hi] where ``miss`` is least: COARSE_STEPS samples, then
+    golden-section steps around the best (the miss is smooth near its minimum).
+    Returns (argument, the samples)."""
+    grid = np.linspace(lo, hi, COARSE_STEPS)
+    best = min(grid, key=miss)
+    step = grid[1] - grid[0]
+    a, b = max(best - step, lo), min(best + step, hi)
+    golden = (np.sqrt(5.0) - 1) / 2
+    for _ in range(REFINE_STEPS):
+        c, d = b - golden * (b - a), a + golden * (b - a)
+        a, b = (a, d) if miss(c) < miss(d) else (c, b)
+    return min([best, (a + b) / 2], key=miss), grid
+
+
 def aim(rig, shot, desired_hit_point, azimuth_deg: float, settings: AdaptSettings | None = None,
-        ball_start=None) -> Aim:
+        ball_start=None, elevation_deg: float | None = None) -> Aim:
     """The shot adapted to ``desired_hit_point`` with the ball sent as close as it can
-    go to ``azimuth_deg`` (DESIGN.md's convention: 0 straight, + toward the off side)."""
+    go to ``azimuth_deg`` (DESIGN.md's convention: 0 straight, + toward the off side)
+    and, when given, ``elevation_deg`` (up from the ground) by the face's tilt."""
     from .choice import BALL_START
     settings = settings or AdaptSettings()
     start = BALL_START if ball_start is None else np.asarray(ball_start, float)
     joint = twist_joint(rig, settings.wrist_dof)
     weights = Adapter(rig, shot).blend(settings.falloff)
     cache: dict = {}
+    tilted = elevation_deg is not None and settings.face == "keep"
 
-    def solve(theta: float):
-        if theta not in cache:
-            a = Adapter(rig, _twisted_shot(shot, joint, theta, weights)).adapt(desired_hit_point, settings)
+    def solve(theta: float, tilt: float):
+        key = (float(theta), float(tilt))
+        if key not in cache:
+            a = Adapter(rig, _twisted_shot(shot, joint, theta, weights)).adapt(
+                desired_hit_point, replace(settings, face_tilt=float(np.degrees(tilt))))
             fl, _ = ballistics.shot_flight(rig, shot, a.global_rotations, a.global_positions, start,
                                            a.desired_hit_point, duration=0.0)
-            cache[theta] = (a, fl.azimuth_deg, fl.contact == "face")
-        return cache[theta]
+            cache[key] = (a, fl.azimuth_deg, fl.elevation_deg, fl.contact == "face")
+        return cache[key]
 
-    def miss(theta: float) -> float:
-        """Degrees off the request; a twist that meets the ball with the edge or the back
-        of the bat counts as further than any face hit."""
-        a, az, on_face = solve(theta)
-        return abs(float(face.wrap_deg(az - azimuth_deg))) + (0.0 if on_face else 360.0)
+    def off_by(value: float, request: float, on_face: bool) -> float:
+        """Degrees off the request; the edge or the back of the bat counts as further than any face hit."""
+        return abs(float(face.wrap_deg(value - request))) + (0.0 if on_face else 360.0)
 
     lo, hi = _twist_range(rig, shot, joint)
-    grid = np.linspace(lo, hi, COARSE_STEPS)
-    best = min(grid, key=miss)
-    step = grid[1] - grid[0]
-    a, b = max(best - step, lo), min(best + step, hi)
-    golden = (np.sqrt(5.0) - 1) / 2
-    for _ in range(REFINE_STEPS):             # the miss is smooth near its minimum
-        c, d = b - golden * (b - a), a + golden * (b - a)
-        a, b = (a, d) if miss(c) < miss(d) else (c, b)
-    theta = min([best, (a + b) / 2], key=miss)
-    adaptation, az, _ = solve(theta)
-    reach = [solve(t)[1] for t in grid if solve(t)[2]] or [az]
-    return Aim(adaptation, float(np.degrees(theta)), float(az), float(azimuth_deg),
-               miss(theta) <= REACHED_DEG, (float(min(reach)), float(max(reach))))
+    tilt = 0.0
+    theta, grid = _minimise(lambda t: off_by(solve(t, tilt)[1], azimuth_deg, solve(t, tilt)[3]), lo, hi)
+    tilts = ()
+    if tilted:
+        t_lo, t_hi = np.radians(-MAX_TILT_DEG), np.radians(MAX_TILT_DEG)
+        for _ in range(2):          # the tilt for the elevation, then the twist again for the azimuth
+            tilt, tilts = _minimise(lambda u: off_by(solve(theta, u)[2], elevation_deg, solve(theta, u)[3]),
+                                    t_lo, t_hi)
+            theta, grid = _minimise(lambda t: off_by(solve(t, tilt)[1], azimuth_deg, solve(t, tilt)[3]), lo, hi)
+    adaptation, az, el, on_face = solve(theta, tilt)
+    reach = [solve(t, tilt)[1] for t in grid if solve(t, tilt)[3]] or [az]
+    out = Aim(adaptation, float(np.degrees(theta)), float(az), float(azimuth_deg),
+              off_by(az, azimuth_deg, on_face) <= REACHED_DEG, (float(min(reach)), float(max(reach))),
+              elevation_deg=float(el), tilt_deg=float(np.degrees(tilt)))
+    if elevation_deg is not None:
+        ups = [solve(theta, u)[2] for u in tilts if solve(theta, u)[3]] or [el]
+        out.requested_elevation_deg = float(elevation_deg)
+        out.elevation_reached = off_by(el, elevation_deg, on_face) <= REACHED_DEG
+        out.elevation_range_deg = (float(min(ups)), float(max(ups)))
+    return out

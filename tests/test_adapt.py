@@ -176,12 +176,20 @@ def test_unreachable_target_stays_finite_and_in_limits(rig, library, adapters):
                   <= ccd.limit_violation(shot.clip.local_rotations, rig.limits) + 1e-6)
 
 
-def test_same_result_under_a_rotated_root(rig):
+@pytest.mark.parametrize("face_turn", [0.0, 0.1])
+def test_same_result_under_a_rotated_root(rig, face_turn):
+    """The IK does not depend on where the batsman stands. The face's turn with the hit
+    point (face_turn) is toward the pitch's off side, so a rotation about the vertical,
+    which leaves that turn's axis alone, gives the same adaptation when the hit point
+    does not move across the pitch."""
     shot = synthetic_shot(rig)
     turned, r = rotated_shot(shot, 57.0)
     t = shot.hit_point + np.array([-12.0, 9.0, 7.0])
-    a = Adapter(rig, shot).adapt(t, AdaptSettings(falloff=60.0))
-    b = Adapter(rig, turned).adapt(quat.rotate(r, t), AdaptSettings(falloff=60.0))
+    settings = AdaptSettings(falloff=60.0, face_turn=face_turn)
+    a = Adapter(rig, shot).adapt(t, settings)
+    across = float(quat.rotate(r, t)[0] - turned.fk[1][turned.hit_frame, rig.bat_joint, 0])
+    settings_b = AdaptSettings(falloff=60.0, face_turn=face_turn * -12.0 / across)
+    b = Adapter(rig, turned).adapt(quat.rotate(r, t), settings_b)
     assert a.bat_error_cm < 0.01 and b.bat_error_cm < 0.01
     assert np.allclose(a.blend, b.blend)
     assert _same_rotation(a.local_rotations[:, 1:], b.local_rotations[:, 1:], atol=1e-7)

@@ -54,12 +54,32 @@ def test_the_panel_twist_choice_reaches_the_engine(state):
     adapter = Adapter(rig, shot)
     contacts = {}
     for twist in ("follow", "lead"):
-        settings = ViewerSettings(pinned_shot="cover_drive", twist=twist)
+        settings = ViewerSettings(pinned_shot="cover_drive", twist=twist, face="free")
         a = adapter.adapt((-70.0, 45.0, 215.0), settings.adapt_settings())
         n = face.face_normal(a.global_rotations[shot.hit_frame], rig.bat_joint, rig.bat["face_normal"])
         contacts[twist] = float(face.face_to_ball(n, BALL_START, a.desired_hit_point))
     assert face.contact(contacts["follow"]) == "face" and contacts["lead"] < contacts["follow"] - 0.2
     assert ViewerSettings(twist="follow").engine_key() != ViewerSettings(twist="lead").engine_key()
+
+
+def test_the_panel_face_choice_reaches_the_engine(state):
+    """The viewer's 'bat face' choice is the engine's: kept (the default), the README's
+    cover-drive example (29 cm off, 15 up and 10 toward the bowler: further than the offset
+    grid of the face tests) meets the ball with the face within 8 degrees of the source's;
+    free (position only), it turns further; the choice changes the engine key."""
+    from engine import face
+    from engine.adapt import Adapter
+    rig = state.rig
+    shot = next(s for s in state.shots if s.name == "cover_drive")
+    adapter = Adapter(rig, shot)
+    angle = {}
+    for choice in ("keep", "free"):
+        settings = ViewerSettings(pinned_shot="cover_drive", face=choice)
+        a = adapter.adapt((-70.0, 45.0, 215.0), settings.adapt_settings())
+        angle[choice] = float(face.face_angle_deg(a.global_rotations[shot.hit_frame], shot.fk[0][shot.hit_frame],
+                                                  rig.bat_joint, rig.bat["face_normal"]))
+    assert ViewerSettings().face == "keep" and angle["keep"] < 8.0 and angle["free"] > angle["keep"] + 5.0
+    assert ViewerSettings(face="keep").engine_key() != ViewerSettings(face="free").engine_key()
 
 
 def test_a_direction_asked_on_the_wagon_wheel_is_hit_once_the_target_holds_still(state):

@@ -22,7 +22,8 @@ WRIST_DOFS = (0, 2)   # the left wrist locked, or free in two axes
 
 
 def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, solver="ccd",
-              twist="follow", direction=None, out: Optional[Path] = None, bvh=None, profile="auto",
+              twist="follow", direction=None, elevation=None, out: Optional[Path] = None, bvh=None,
+              profile="auto",
               hit_frame="auto", handed=None, scale=None, offset=None, library=None,
               csv_rotations="euler", leave_out=False) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
@@ -31,6 +32,8 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
 
     if out is not None:
         check_out(out)
+    if elevation is not None and (direction is None or bvh is not None):
+        raise UserError("--elevation goes with --direction AZ (the ball's azimuth and elevation together)")
     settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver, twist=twist)
     check(settings)
     learnt = solver in LEARNT_SOLVERS
@@ -64,7 +67,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         a = solver_.adapt(adapter, desired, settings, leave_out)
     else:
         from engine.direction import aim
-        aimed = aim(rig, shot, desired, direction, settings)
+        aimed = aim(rig, shot, desired, direction, settings, elevation_deg=elevation)
         a = aimed.adaptation
     solve_ms = (time.perf_counter() - t0) * 1e3
     if out is not None and shot.capture is not None:
@@ -93,6 +96,11 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
             "direction_requested_deg": round(aimed.requested_deg, 2), "direction_reached": aimed.reached,
             "direction_range_deg": [round(v, 1) for v in aimed.range_deg],
             "forearm_twist_deg": round(aimed.twist_deg, 2)}),
+        **({} if aimed is None or aimed.requested_elevation_deg is None else {
+            "elevation_requested_deg": round(aimed.requested_elevation_deg, 2),
+            "elevation_reached": aimed.elevation_reached,
+            "elevation_range_deg": [round(v, 1) for v in aimed.elevation_range_deg],
+            "face_tilt_deg": round(aimed.tilt_deg, 2)}),
         "solve_ms": round(solve_ms, 3),
         "out": None if out is None else str(out),
     }
@@ -191,7 +199,7 @@ def _write(out: Path, rig, shot, a, csv_rotations: str = "euler") -> None:
 
 
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
-          "--solver": 1, "--twist": 1, "--direction": 1, "--out": 1, "--bvh": 1, "--profile": 1,
+          "--solver": 1, "--twist": 1, "--direction": 1, "--elevation": 1, "--out": 1, "--bvh": 1, "--profile": 1,
           "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1,
           "--csv-rotations": 1, "--leave-out": 0}
 CSV_ROTATIONS = ("euler", "quaternion")
@@ -217,7 +225,7 @@ def parse_args(args: list[str]) -> dict:
         i += 1 + (0 if inline else n)
 
     out = {"target": None, "shot_name": None, "hit": None, "falloff": 90.0, "wrist_dof": 0,
-           "solver": "ccd", "twist": "follow", "direction": None, "out": None}
+           "solver": "ccd", "twist": "follow", "direction": None, "elevation": None, "out": None}
     out.update(capture_args(got))
     if "--target" in got:
         out["target"] = position("--target", got["--target"])
@@ -239,6 +247,8 @@ def parse_args(args: list[str]) -> dict:
             raise UserError(f"--twist must be one of {', '.join(TWISTS)}, got {shorten(out['twist'])!r}")
     if "--direction" in got:
         out["direction"] = number("--direction", got["--direction"][0], -180.0, 180.0)
+    if "--elevation" in got:
+        out["elevation"] = number("--elevation", got["--elevation"][0], -90.0, 90.0)
     if "--out" in got:
         out["out"] = Path(got["--out"][0])
     return out
@@ -293,6 +303,10 @@ def register(cli: typer.Typer) -> None:
                               (an extra left-forearm twist at the hit); out of
                               the shot's reach: the closest it gives, and
                               direction_reached false in the JSON
+          --elevation EL      with --direction: and this far up (deg above the
+                              ground) by tilting the bat face; out of reach: the
+                              closest, elevation_reached false and
+                              elevation_range_deg in the JSON
           --out FILE          write the adapted shot (atomic): .bvh, .csv, .glb
                               or .gltf (skinned batsman, the adapted and the
                               source take, the ball; metres)

@@ -8,7 +8,7 @@ import time
 import numpy as np
 from imgui_bundle import imgui, implot
 
-from app.viewer.settings import (COMPARE_CHOICES, FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE,
+from app.viewer.settings import (COMPARE_CHOICES, FACES, FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE,
                                  RENDER_SCALE_RANGE, SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TWISTS, ViewerSettings)
 from app.ui.wagonwheel import draw_wagon_wheel
 from app.ui.padwidget import draw_pc_pad
@@ -166,6 +166,15 @@ def _solver_settings(settings: ViewerSettings) -> None:
         if imgui.is_item_hovered():
             imgui.set_tooltip("follow: the left arm's roll joints keep the source's twist, so the bat face\n"
                               "stays square to the ball; lead: CCD turns them too (the dissertation's CCD)")
+    imgui.text("bat face  ")
+    for name in FACES:
+        imgui.same_line()
+        if imgui.radio_button(f"{name}##face", settings.face == name):
+            settings.face = name
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("keep: after the bat reaches the ball, the arm turns the face back to the source's\n"
+                          "(turned a little with the hit point: move it off, the ball goes further off);\n"
+                          "free: the position solve alone")
     changed, v = imgui.slider_int("iterations", settings.iterations, *ITERATIONS_RANGE)
     if changed:
         settings.iterations = v

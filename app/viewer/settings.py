@@ -10,7 +10,7 @@ import numpy as np
 
 from app.errors import UserError, number, position, shorten
 from app.viewer.picking import TARGET_PLANE_Z, clamp_target
-from engine.adapt import TWISTS, AdaptSettings
+from engine.adapt import FACES, TWISTS, AdaptSettings
 from engine.learnt_solver import SOLVERS
 
 FALLOFF_RANGE = (20.0, 200.0)       # cm; the dissertation's useful band is 70-110
@@ -29,7 +29,8 @@ MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
 SETTING_RANGES = {"falloff": FALLOFF_RANGE, "iterations": ITERATIONS_RANGE, "tolerance": TOLERANCE_RANGE,
                   "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING),
                   "direction": (-180.0, 180.0)}
-SETTING_CHOICES = {"solver": SOLVERS, "compare_solver": COMPARE_CHOICES, "twist": TWISTS, "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
+SETTING_CHOICES = {"solver": SOLVERS, "compare_solver": COMPARE_CHOICES, "twist": TWISTS, "face": FACES,
+                   "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
 # The overlay group is set field by field (``overlays.NAME``), never as a whole. One-off
 # actions (screenshot, export, reload) are no settings: ``app.viewer.requests``.
 NOT_SETTABLE = ("overlays",)
@@ -57,6 +58,7 @@ class ViewerSettings:
     wrist_dof: int = AdaptSettings.wrist_dof
     solver: str = AdaptSettings.solver
     twist: str = AdaptSettings.twist
+    face: str = AdaptSettings.face
     iterations: int = AdaptSettings.iterations
     tolerance: float = AdaptSettings.tolerance
     fix_right_hand: bool = AdaptSettings.fix_right_hand
@@ -88,6 +90,7 @@ class ViewerSettings:
         self.solver = self.solver if self.solver in SOLVERS else d.solver
         self.compare_solver = self.compare_solver if self.compare_solver in COMPARE_CHOICES else "off"
         self.twist = self.twist if self.twist in TWISTS else d.twist
+        self.face = self.face if self.face in FACES else d.face
         self.iterations = int(_clamp(_finite(self.iterations, d.iterations), *ITERATIONS_RANGE))
         self.tolerance = _clamp(_finite(self.tolerance, d.tolerance), *TOLERANCE_RANGE)
         self.speed = _clamp(_finite(self.speed, 1.0), *SPEED_RANGE)
@@ -103,7 +106,7 @@ class ViewerSettings:
         """The engine's view of these settings (``engine.adapt.AdaptSettings``)."""
         return AdaptSettings(falloff=self.falloff, wrist_dof=self.wrist_dof, solver=self.solver,
                              iterations=self.iterations, tolerance=self.tolerance,
-                             fix_right_hand=self.fix_right_hand, twist=self.twist)
+                             fix_right_hand=self.fix_right_hand, twist=self.twist, face=self.face)
 
     def aim_key(self) -> tuple | None:
         """The engine key with the asked direction, or None when no direction is asked."""
@@ -113,7 +116,7 @@ class ViewerSettings:
         """Everything the adaptation depends on; a change means re-solve."""
         return (tuple(np.round(self.target, 6)), self.pinned_shot, self.falloff, self.wrist_dof,
                 self.solver, self.iterations, self.tolerance, self.fix_right_hand, self.twist,
-                self.learnt_leave_out)
+                self.learnt_leave_out, self.face)
 
     def compare_key(self) -> tuple | None:
         """The engine key with the compared solver, or None when no comparison is asked."""
