@@ -84,6 +84,9 @@ class AdaptSettings:
     # kept face: degrees it tilts up (+) or down at the hit (carried by the blend): the
     # ball's elevation (engine.direction)
     face_tilt: float = 0.0
+    # kept face: degrees it turns about the vertical at the hit (+ toward the off side,
+    # carried by the blend), on top of face_turn: the ball's azimuth (engine.direction)
+    face_yaw: float = 0.0
 
 
 @dataclass
@@ -678,7 +681,9 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
         n_src = qrot(r_f, n_bat)
         n_last = qrot(qconj(q_at(src_grot[f], lhand)), n_src)
         n_tgt = qrot(_turn_by(face_turn, blend), n_src)
-        if keep_face and its > 0:
+        turned = blend > 0.0 and (face_turn[0] != 0.0 or face_turn[1] != 0.0 or face_turn[2] != 0.0)
+        if keep_face and (its > 0 or turned):    # the bat moved, or the face is asked to turn
+            its = max(its, 1)
             # the face the position solve left, moved toward the kept one by the blend (all
             # the way at the hit; over the analyse --style offsets the upper-body style
             # distance 1.84 -> 1.76, position only 1.37)
@@ -915,10 +920,11 @@ class Adapter:
 
     def face_turn(self, desired: np.ndarray, settings: AdaptSettings) -> np.ndarray:
         """Rotation vector (3,) of the kept face at the hit frame against the source's:
-        ``face_turn`` deg per cm of the hit point's move toward the off side (-x) about
-        the vertical, then ``face_tilt`` deg up about the horizontal across the face."""
+        ``face_turn`` deg per cm of the hit point's move toward the off side (-x) plus
+        ``face_yaw`` deg about the vertical, then ``face_tilt`` deg up about the horizontal
+        across the face."""
         off_cm = -(float(desired[0]) - float(self.hit_point[0]))
-        yaw = -math.radians(settings.face_turn * off_cm)
+        yaw = -math.radians(settings.face_turn * off_cm + settings.face_yaw)
         if settings.face_tilt == 0.0:
             return np.array([0.0, yaw, 0.0])        # the fast path: scrubbing calls this every frame
         across = np.cross(self.source_face(), [0.0, 1.0, 0.0])

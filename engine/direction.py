@@ -2,20 +2,21 @@
 the ball"), by the face.
 
 At the hit point the ball's direction is set by the bat face and the bat's velocity
-(engine.ballistics). With the hit point fixed, the face is turned by twisting the left
-forearm about its bone: the chain's twist-only joint nearest the hand gets an extra
-twist ``theta`` blended in with the importance blend (0 at the shot's ends, full at the
-hit), so the shot starts and ends as captured and the rest of the swing keeps its
-style; the adaptation (CCD, roll joints following) then puts the bat back on the hit
-point. ``theta`` is searched for the requested azimuth within the joint's limits and
-``MAX_TWIST_DEG`` of the source's twist; a request out of reach gets the closest
+(engine.ballistics). With the hit point fixed and the face kept (AdaptSettings.face
+"keep", the default), the kept face is turned about the vertical by ``theta``
+(AdaptSettings.face_yaw, carried by the importance blend: 0 at the shot's ends, full
+at the hit), and the face-keeping solve turns the arm to give it while the bat stays
+on the point; ``theta`` is searched within ``MAX_YAW_DEG`` for the requested azimuth.
+With the face free (position only), the chain's twist-only joint nearest the hand gets
+an extra twist ``theta`` blended in the same way, within the joint's limits and
+``MAX_TWIST_DEG`` of the source's twist. A request out of reach gets the closest
 direction the shot can give, and says so.
 
 The elevation (``elevation_deg``) is set by tilting the kept face (AdaptSettings.face_tilt:
 the face normal turned up or down about the horizontal across it, carried by the blend;
 the arm's limits bound what it can give): the tilt is searched within ``MAX_TILT_DEG``
-for the requested elevation at the twist found, then the twist again for the azimuth at
-that tilt (a tilt moves the azimuth a little, a twist the elevation).
+for the requested elevation at the turn found, then the turn again for the azimuth at
+that tilt (a tilt moves the azimuth a little, a turn the elevation).
 """
 from __future__ import annotations
 
@@ -29,7 +30,8 @@ from .ccd import limit_euler
 
 MAX_TWIST_DEG = 45.0      # extra forearm twist at the hit: further would no longer read as the same shot
 MAX_TILT_DEG = 30.0       # face tilted up or down at the hit, for the elevation
-COARSE_STEPS = 19         # the twist range sampled before refining
+MAX_YAW_DEG = 45.0        # kept face turned about the vertical at the hit, for the azimuth
+COARSE_STEPS = 19         # the turn's range sampled before refining
 REFINE_STEPS = 12         # golden-section steps around the best sample (~0.1 deg)
 REACHED_DEG = 3.0         # closer than this to the request counts as reached
 
@@ -37,7 +39,7 @@ REACHED_DEG = 3.0         # closer than this to the request counts as reached
 @dataclass
 class Aim:
     adaptation: Adaptation
-    twist_deg: float          # the extra forearm twist at the hit frame
+    twist_deg: float          # the extra forearm twist at the hit frame (face free; 0 when kept)
     azimuth_deg: float        # where the ball goes
     requested_deg: float
     reached: bool             # within REACHED_DEG of the request
@@ -47,6 +49,7 @@ class Aim:
     elevation_reached: bool | None = None       # within REACHED_DEG of the requested elevation
     elevation_range_deg: tuple = ()             # the (min, max) elevation the tilt range gives
     tilt_deg: float = 0.0                       # the face tilt at the hit frame
+    yaw_deg: float = 0.0                        # the kept face's turn about the vertical at the hit
 
 
 def twist_joint(rig, wrist_dof: int = 0) -> int:
@@ -100,16 +103,23 @@ def aim(rig, shot, desired_hit_point, azimuth_deg: float, settings: AdaptSetting
     from .choice import BALL_START
     settings = settings or AdaptSettings()
     start = BALL_START if ball_start is None else np.asarray(ball_start, float)
-    joint = twist_joint(rig, settings.wrist_dof)
-    weights = Adapter(rig, shot).blend(settings.falloff)
+    kept = settings.face == "keep"
+    adapter = Adapter(rig, shot)
+    joint = None if kept else twist_joint(rig, settings.wrist_dof)
+    weights = adapter.blend(settings.falloff)
     cache: dict = {}
-    tilted = elevation_deg is not None and settings.face == "keep"
+    tilted = elevation_deg is not None and kept
 
     def solve(theta: float, tilt: float):
+        """The adaptation with the face turned ``theta`` about the vertical (kept face) or
+        the forearm twisted ``theta`` (free face), and tilted ``tilt`` (rad)."""
         key = (float(theta), float(tilt))
         if key not in cache:
-            a = Adapter(rig, _twisted_shot(shot, joint, theta, weights)).adapt(
-                desired_hit_point, replace(settings, face_tilt=float(np.degrees(tilt))))
+            if kept:
+                a = adapter.adapt(desired_hit_point, replace(settings, face_yaw=float(np.degrees(theta)),
+                                                             face_tilt=float(np.degrees(tilt))))
+            else:
+                a = Adapter(rig, _twisted_shot(shot, joint, theta, weights)).adapt(desired_hit_point, settings)
             fl, _ = ballistics.shot_flight(rig, shot, a.global_rotations, a.global_positions, start,
                                            a.desired_hit_point, duration=0.0)
             cache[key] = (a, fl.azimuth_deg, fl.elevation_deg, fl.contact == "face")
@@ -119,7 +129,7 @@ def aim(rig, shot, desired_hit_point, azimuth_deg: float, settings: AdaptSetting
         """Degrees off the request; the edge or the back of the bat counts as further than any face hit."""
         return abs(float(face.wrap_deg(value - request))) + (0.0 if on_face else 360.0)
 
-    lo, hi = _twist_range(rig, shot, joint)
+    lo, hi = (np.radians(-MAX_YAW_DEG), np.radians(MAX_YAW_DEG)) if kept else _twist_range(rig, shot, joint)
     tilt = 0.0
     theta, grid = _minimise(lambda t: off_by(solve(t, tilt)[1], azimuth_deg, solve(t, tilt)[3]), lo, hi)
     tilts = ()
@@ -131,9 +141,10 @@ def aim(rig, shot, desired_hit_point, azimuth_deg: float, settings: AdaptSetting
             theta, grid = _minimise(lambda t: off_by(solve(t, tilt)[1], azimuth_deg, solve(t, tilt)[3]), lo, hi)
     adaptation, az, el, on_face = solve(theta, tilt)
     reach = [solve(t, tilt)[1] for t in grid if solve(t, tilt)[3]] or [az]
-    out = Aim(adaptation, float(np.degrees(theta)), float(az), float(azimuth_deg),
+    turn = float(np.degrees(theta))
+    out = Aim(adaptation, 0.0 if kept else turn, float(az), float(azimuth_deg),
               off_by(az, azimuth_deg, on_face) <= REACHED_DEG, (float(min(reach)), float(max(reach))),
-              elevation_deg=float(el), tilt_deg=float(np.degrees(tilt)))
+              elevation_deg=float(el), tilt_deg=float(np.degrees(tilt)), yaw_deg=turn if kept else 0.0)
     if elevation_deg is not None:
         ups = [solve(theta, u)[2] for u in tilts if solve(theta, u)[3]] or [el]
         out.requested_elevation_deg = float(elevation_deg)

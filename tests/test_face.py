@@ -324,7 +324,7 @@ def test_a_requested_direction_is_met_with_the_face(rig, library, name):
         assert face.contact(cos) == "face" and a.bat_error_cm < 0.01
         src = shot.clip.local_rotations
         assert np.allclose(a.local_rotations[[0, -1]], src[[0, -1]], atol=1e-9)
-        assert abs(r.twist_deg) <= direction.MAX_TWIST_DEG + 1e-6
+        assert r.twist_deg == 0.0 and abs(r.yaw_deg) <= direction.MAX_YAW_DEG + 1e-6
     beyond = direction.aim(rig, shot, shot.hit_point, float(face.wrap_deg(lo - 40.0)))
     if lo - 40.0 > -180.0 and hi - lo < 320.0:       # a range that does not wrap round
         assert not beyond.reached and abs(beyond.azimuth_deg - lo) < 5.0
@@ -366,3 +366,16 @@ def test_adapt_cli_elevation_json_and_bad_input():
                 ["--direction", "10", "--elevation", "nan"]):
         r = CliRunner().invoke(cli, ["adapt", "--shot", "straight_drive", "--hit", "0", "30", "210", *bad])
         assert r.exit_code == 2 and r.stderr.startswith("error:") and "Traceback" not in r.stderr, r.stderr
+
+
+def test_with_the_face_free_the_direction_comes_from_the_forearm_twist(rig, library):
+    """face "free" (position only): ``aim`` turns the face by the left forearm's twist
+    instead, within MAX_TWIST_DEG, and still lands inside its range with the face."""
+    from engine import direction
+    from engine.adapt import AdaptSettings
+    shot = next(s for s in library if s.name == "cover_drive")
+    free = AdaptSettings(face="free")
+    lo, hi = direction.aim(rig, shot, shot.hit_point, 0.0, free).range_deg
+    r = direction.aim(rig, shot, shot.hit_point, lo + 0.6 * (hi - lo), free)
+    assert r.reached and r.yaw_deg == 0.0 and 0.0 < abs(r.twist_deg) <= direction.MAX_TWIST_DEG + 1e-6
+    assert r.adaptation.bat_error_cm < 0.01

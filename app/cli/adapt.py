@@ -95,7 +95,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         **({} if aimed is None else {
             "direction_requested_deg": round(aimed.requested_deg, 2), "direction_reached": aimed.reached,
             "direction_range_deg": [round(v, 1) for v in aimed.range_deg],
-            "forearm_twist_deg": round(aimed.twist_deg, 2)}),
+            "face_yaw_deg": round(aimed.yaw_deg, 2), "forearm_twist_deg": round(aimed.twist_deg, 2)}),
         **({} if aimed is None or aimed.requested_elevation_deg is None else {
             "elevation_requested_deg": round(aimed.requested_elevation_deg, 2),
             "elevation_reached": aimed.elevation_reached,
@@ -299,8 +299,8 @@ def register(cli: typer.Typer) -> None:
                               twist (follow, default: the face stays square) or
                               are turned by CCD too (lead, the dissertation's)
           --direction AZ      send the ball this way (deg; 0 straight back past the
-                              bowler, + toward the off side) by turning the face
-                              (an extra left-forearm twist at the hit); out of
+                              bowler, + toward the off side) by turning the kept
+                              face about the vertical at the hit; out of
                               the shot's reach: the closest it gives, and
                               direction_reached false in the JSON
           --elevation EL      with --direction: and this far up (deg above the
