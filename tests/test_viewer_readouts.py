@@ -111,3 +111,29 @@ def test_a_direction_asked_on_the_wagon_wheel_is_hit_once_the_target_holds_still
     update(state, settings, 1 / 60)
     assert state.readouts.aim_reached is None and state.readouts.ball_azimuth_deg == pytest.approx(plain, abs=1e-6)
     assert len(state.azimuth_trail) >= 3               # what the wagon wheel draws as the trail
+
+
+def test_an_elevation_asked_with_the_direction_is_hit_by_the_face_tilt(state):
+    """The wagon wheel's 'elevation' (``aim_elevation``/``elevation``, scriptable by ``set``):
+    with a direction asked, the ball leaves within a few degrees of both inside the reach
+    (the face tilted), the readouts give the elevation's reach; dropping it gives the
+    direction alone back (no elevation readout)."""
+    from app.viewer.update import AIM_SETTLE_S, update
+    index = [s.name for s in state.shots].index("straight_drive")
+    settings = ViewerSettings(pinned_shot="straight_drive", target=default_target(state, index))
+    state.solved_key = None
+    update(state, settings, 1 / 60)
+    settings.set("aim_direction", True)
+    settings.set("direction", 10.0)
+    settings.set("aim_elevation", True)
+    settings.set("elevation", 5.0)
+    for _ in range(5):
+        update(state, settings, AIM_SETTLE_S / 2)
+    r = state.readouts
+    lo, hi = r.aim_elevation_range_deg
+    assert lo < 5.0 < hi and r.aim_elevation_reached and r.aim_reached and r.contact == "face"
+    assert abs(r.ball_elevation_deg - 5.0) < 3.0 and abs(r.ball_azimuth_deg - 10.0) < 3.0
+    settings.set("aim_elevation", False)
+    for _ in range(2):
+        update(state, settings, AIM_SETTLE_S / 2)
+    assert state.readouts.aim_elevation_reached is None and state.readouts.aim_reached

@@ -65,6 +65,7 @@ def draw_wagon_wheel(settings, state) -> None:
     dl.add_text(imgui.ImVec2(origin.x + size - 22, c.y - 7), _u32(SOURCE_RGBA), "off")
     dl.add_text(imgui.ImVec2(origin.x + 2, c.y - 7), _u32(SOURCE_RGBA), "leg")
     _caption(settings, r)
+    _elevation(settings, r)
 
 
 def _ray(dl, centre, radius, azimuth_deg: float, rgba, thickness: float) -> None:
@@ -93,9 +94,31 @@ def _caption(settings, r) -> None:
     if r.aim_reached is None:
         imgui.text(f"asked {settings.direction:+.0f} deg: aiming when the target holds still")
         return
-    lo, hi = r.aim_range_deg or (float("nan"), float("nan"))
-    text = f"asked {settings.direction:+.0f} deg, goes {r.ball_azimuth_deg:+.0f} (reach {lo:+.0f}..{hi:+.0f})"
-    if r.aim_reached:
+    _outcome(f"asked {settings.direction:+.0f} deg, goes {r.ball_azimuth_deg:+.0f}", r.aim_range_deg, r.aim_reached)
+
+
+def _outcome(text: str, reach: tuple, reached: bool) -> None:
+    """What an aim gives and its reach; red with "closest it gives" when the ask was out of it."""
+    lo, hi = reach or (float("nan"), float("nan"))
+    text = f"{text} (reach {lo:+.0f}..{hi:+.0f})"
+    if reached:
         imgui.text(text)
     else:
         imgui.text_colored(imgui.ImVec4(*MISS_RGBA), text + ": closest it gives")
+
+
+def _elevation(settings, r) -> None:
+    """With a direction asked: the ball's elevation asked too (the face tilted), and what it gives."""
+    if not settings.aim_direction:
+        return
+    changed, on = imgui.checkbox("elevation##aim", settings.aim_elevation)
+    if changed:
+        settings.aim_elevation = on
+    if not settings.aim_elevation:
+        return
+    imgui.same_line()
+    changed, v = imgui.slider_float("##aim_elevation", settings.elevation, -60.0, 60.0, "%+.0f deg")
+    if changed:
+        settings.elevation = v
+    if r.aim_elevation_reached is not None:
+        _outcome(f"goes {r.ball_elevation_deg:+.0f} deg up", r.aim_elevation_range_deg, r.aim_elevation_reached)

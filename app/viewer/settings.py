@@ -28,7 +28,7 @@ MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
 # What ``set`` checks beyond the type: ranges and choices per key.
 SETTING_RANGES = {"falloff": FALLOFF_RANGE, "iterations": ITERATIONS_RANGE, "tolerance": TOLERANCE_RANGE,
                   "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING),
-                  "direction": (-180.0, 180.0)}
+                  "direction": (-180.0, 180.0), "elevation": (-60.0, 60.0)}
 SETTING_CHOICES = {"solver": SOLVERS, "compare_solver": COMPARE_CHOICES, "twist": TWISTS, "face": FACES,
                    "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
 # The overlay group is set field by field (``overlays.NAME``), never as a whole. One-off
@@ -70,6 +70,9 @@ class ViewerSettings:
     # "hit it that way" (engine.direction): the ball's azimuth asked for, deg (0 straight, + off side)
     aim_direction: bool = False
     direction: float = 0.0
+    # with a direction asked: the ball's elevation asked too (deg above the ground; the face tilted)
+    aim_elevation: bool = False
+    elevation: float = 0.0
     # playback (frame is fractional: slow motion shows in-between poses)
     frame: float = 0.0
     playing: bool = False
@@ -97,6 +100,7 @@ class ViewerSettings:
         self.frame = float(max(_finite(self.frame, 0.0), 0.0))
         self.render_scale = _clamp(_finite(self.render_scale, 1.0), *RENDER_SCALE_RANGE)
         self.direction = _clamp(_finite(self.direction, 0.0), -180.0, 180.0)
+        self.elevation = _clamp(_finite(self.elevation, 0.0), -60.0, 60.0)
         t = np.asarray(self.target, float).reshape(-1)[:3]
         self.target = clamp_target(t if t.size == 3 and np.isfinite(t).all() else (0.0, 60.0, 0.0))
         if self.overlays.ghost not in GHOST_MODES:
@@ -110,7 +114,13 @@ class ViewerSettings:
 
     def aim_key(self) -> tuple | None:
         """The engine key with the asked direction, or None when no direction is asked."""
-        return self.engine_key() + (round(self.direction, 3),) if self.aim_direction else None
+        if not self.aim_direction:
+            return None
+        return self.engine_key() + (round(self.direction, 3),) + ((round(self.elevation, 3),) if self.aim_elevation else ())
+
+    def asked_elevation(self) -> float | None:
+        """The elevation asked with the direction (deg), or None."""
+        return self.elevation if self.aim_direction and self.aim_elevation else None
 
     def engine_key(self) -> tuple:
         """Everything the adaptation depends on; a change means re-solve."""

@@ -29,6 +29,8 @@ class Readouts:
     source_azimuth_deg: float = float("nan")  # where the source shot sends the ball from its own hit point
     aim_reached: bool | None = None         # the asked direction reached (None: none asked / not yet aimed)
     aim_range_deg: tuple = ()               # the directions the shot can give with the face
+    aim_elevation_reached: bool | None = None  # the asked elevation reached (None: none asked)
+    aim_elevation_range_deg: tuple = ()     # the elevations the face's tilt can give there
     engine_ms: float = 0.0                  # engine time spent this frame
     solve_ms: float = 0.0                   # last whole-shot solve
     us_per_frame: float = float("nan")      # last whole-shot solve over the shot's frames

@@ -239,7 +239,7 @@ def solve(state: AppState, settings: ViewerSettings, direction: float | None = N
             state.readouts.us_per_frame = (time.perf_counter() - t1) * 1e6 / max(len(adaptation.blend), 1)
         else:
             aimed = aim(state.rig, state.shots[index], desired, direction, settings.adapt_settings(),
-                        state.ball_start)
+                        state.ball_start, elevation_deg=settings.asked_elevation())
             adaptation = aimed.adaptation
         check_finite(adaptation)
         flight, flight_dt = ball_flight(state, index, adaptation, desired)
@@ -258,6 +258,8 @@ def solve(state: AppState, settings: ViewerSettings, direction: float | None = N
     state.readouts.max_grip_error_cm = float(np.max(adaptation.grip_error_cm))
     state.readouts.aim_reached = None if aimed is None else bool(aimed.reached)
     state.readouts.aim_range_deg = () if aimed is None else tuple(aimed.range_deg)
+    state.readouts.aim_elevation_reached = None if aimed is None else aimed.elevation_reached
+    state.readouts.aim_elevation_range_deg = () if aimed is None else tuple(aimed.elevation_range_deg)
     _trail(state, index)
     state.solve_count += 1
     return True
