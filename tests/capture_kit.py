@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-MOCAP = Path(__file__).resolve().parents[2] / "shared" / "mocap"
+from tests.conftest import MOCAP
 GOLF = MOCAP / "cmu_63_02_golf_swing.bvh"
 WALK = MOCAP / "cmu_02_01_walk.bvh"
 

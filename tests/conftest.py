@@ -26,6 +26,6 @@ def rig():
 def software_gl_kernels():
     """The software-GL profile's kernels compiled once for the run: the viewer compiles them
     behind its window and stands its tricks aside until then; a test asking for the profile
-    wants it whole from its first frame (tests/test_softgl_kernels.py covers the wait)."""
+    wants it whole from its first frame (tests/app/softgl/test_kernels.py covers the wait)."""
     from app.softgl import kernels
     kernels.compile_all()

@@ -9,7 +9,7 @@ from app.viewer.state import AppState
 from engine import quat
 from engine.library import Shot
 from engine.skeleton import clip_fk
-from test_pca import smooth_random_clip
+from tests.motion_kit import smooth_random_clip
 
 
 @pytest.fixture()

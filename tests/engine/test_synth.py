@@ -6,7 +6,8 @@ from engine import bvh, cleanup, quat, synth
 from engine import pca as pcam
 from engine.library import conform_to_rig
 from engine.skeleton import clip_fk
-from test_pca import smooth_random_clip
+from tests.conftest import ROOT
+from tests.motion_kit import smooth_random_clip
 
 
 @pytest.fixture(scope="module")
@@ -204,7 +205,7 @@ def test_plant_targets_follow_near_plants_and_hold_far_ones():
 def _shot_names():
     import json
     from pathlib import Path
-    lib = Path(__file__).resolve().parent.parent / "assets" / "shots" / "library.json"
+    lib = ROOT / "assets" / "shots" / "library.json"
     return [s["name"] for s in json.loads(lib.read_text())]
 
 

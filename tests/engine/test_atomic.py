@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st
 
 from engine import atomic
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.conftest import ROOT
 
 SLOW_WRITER = """
 import sys, time

@@ -15,7 +15,7 @@ from app.viewer import script as sc
 from app.errors import UserError
 from app.viewer.requests import Requests
 from app.viewer.settings import (SETTING_CHOICES, SETTING_RANGES, ViewerSettings, check_setting, setting_kinds)
-from conftest import ROOT
+from tests.conftest import ROOT
 
 FUZZ = settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

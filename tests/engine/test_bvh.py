@@ -5,7 +5,7 @@ import pytest
 from engine import bvh, quat
 from engine.skeleton import clip_fk
 
-from conftest import MOCAP
+from tests.conftest import MOCAP
 
 GOLF = MOCAP / "cmu_63_02_golf_swing.bvh"
 

@@ -14,7 +14,7 @@ from engine import bvh, learnt_ik as L, reconstruct as R
 from engine.library import load_library
 from engine.skeleton import clip_fk
 
-MOCAP = Path(__file__).resolve().parents[2] / "shared" / "mocap"
+from tests.conftest import MOCAP
 CLI = [sys.executable, "-c", "from app.cli import main; main()", "reconstruct"]
 
 

@@ -12,7 +12,8 @@ from app.cli.terrain_strip import foot_joints, load_terrain, terrain_strip
 from engine import terrain as T
 from engine.capture import load_capture
 
-WALK = Path(__file__).resolve().parents[2] / "shared" / "mocap" / "cmu_02_01_walk.bvh"
+from tests.conftest import MOCAP
+WALK = MOCAP / "cmu_02_01_walk.bvh"
 CLI = [sys.executable, "-c", "from app.cli import main; main()"]
 SPEC = "sine:amp=8,wavelength=120"
 CELL = (240, 300)

@@ -4,7 +4,7 @@ the clip's rotations, and a file read and written back keeps its own numbers
 import numpy as np
 import pytest
 
-from conftest import MOCAP, ROOT
+from tests.conftest import MOCAP, ROOT
 from engine import bvh, euler, quat
 from engine.skeleton import Clip
 

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from conftest import ROOT
+from tests.conftest import ROOT
 
 HITPOINT = [sys.executable, "-c", "from app.cli import main; main()"]
 

@@ -8,7 +8,7 @@ from typer.testing import CliRunner
 from app.cli import cli
 from engine import bvh
 from engine.library import conform_to_rig
-from test_pca import smooth_random_clip
+from tests.motion_kit import smooth_random_clip
 
 runner = CliRunner()
 

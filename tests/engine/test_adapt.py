@@ -10,7 +10,7 @@ import pytest
 from engine import ballistics, ccd, choice, quat
 from engine.adapt import Adapter, AdaptSettings
 from engine.library import load_library
-from test_ik import rotated_shot, synthetic_shot
+from tests.engine.test_ik import rotated_shot, synthetic_shot
 
 HITPOINT = [sys.executable, "-c", "from app.cli import main; main()"]
 

@@ -12,11 +12,11 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from app.errors import UserError
 from app.jsonfile import MAX_JSON_DEPTH, read_json
-from conftest import ROOT
+from tests.conftest import ROOT
 from engine import synth
 from engine import pca as pcam
 from engine.skeleton import clip_fk
-from test_pca import smooth_random_clip
+from tests.motion_kit import smooth_random_clip
 
 FUZZ = settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

@@ -7,6 +7,8 @@ import sys
 import numpy as np
 import pytest
 
+from tests.conftest import ROOT
+
 from tools import blender_fbx
 
 CHECK = r'''
@@ -46,7 +48,7 @@ def test_without_blender_one_line_and_exit_2(tmp_path, monkeypatch):
     monkeypatch.setenv("PATH", str(tmp_path))
     (tmp_path / "a.glb").write_bytes(b"glTF")
     done = subprocess.run([sys.executable, "-m", "tools.blender_fbx", str(tmp_path / "a.glb"), str(tmp_path / "a.fbx")],
-                          capture_output=True, text=True, cwd=blender_fbx.Path(__file__).resolve().parents[1])
+                          capture_output=True, text=True, cwd=ROOT)
     assert done.returncode == 2 and done.stdout == ""
     assert done.stderr.startswith("error: Blender is not installed") and done.stderr.count("\n") == 1
     assert not (tmp_path / "a.fbx").exists()

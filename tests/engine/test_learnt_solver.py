@@ -16,7 +16,7 @@ from engine.learnt_solver import LearntSolver, handles, learnt_start
 from engine.library import load_library
 from engine.skeleton import clip_fk, Clip
 
-MOCAP = Path(__file__).resolve().parents[2] / "shared" / "mocap"
+from tests.conftest import MOCAP
 CLI = [sys.executable, "-c", "from app.cli import main; main()", "adapt"]
 OFFSETS = [(15, 0, 0), (-15, 0, 0), (0, 15, 0), (0, -15, 0), (0, 0, 15), (0, 0, -15)]
 

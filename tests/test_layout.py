@@ -1,7 +1,7 @@
 """Architecture rules: engine/ stays free of the app and of GL/window libraries."""
 import ast
 
-from conftest import ROOT
+from tests.conftest import ROOT
 
 FORBIDDEN = {"app", "glfw", "moderngl", "imgui_bundle", "OpenGL", "imgui"}
 

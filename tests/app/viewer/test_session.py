@@ -24,7 +24,7 @@ from app.viewer.state import AppState
 from engine.synth import MAX_ABS_SCORE
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
-ROOT = Path(__file__).resolve().parent.parent
+from tests.conftest import ROOT
 SIZE = (960, 600)
 
 

@@ -9,8 +9,8 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from engine import bvh, quat
 from engine.skeleton import Clip, Skeleton
 
-from conftest import MOCAP
-from test_core_bvh import SMALL
+from tests.conftest import MOCAP
+from tests.engine.test_bvh import SMALL
 
 # test_core_bvh's two-joint file, grown: a joint without channels under Chest
 # (holding the End Site), a rotation-only leg, three frames.

@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
-from conftest import ROOT
+from tests.conftest import ROOT
 from app.render.mesh import _accessor, load_glb
 from engine import bvh, quat
 from engine.gltf_export import METRES_PER_CM, write_gltf

@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-import capture_kit as kit
+from tests import capture_kit as kit
 from engine import bvh, profiles
 from engine.adapt import Adapter
 from engine.capture import load_capture

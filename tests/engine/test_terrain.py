@@ -14,7 +14,7 @@ import pytest
 from engine import bvh, terrain as T
 from engine.cleanup import planted_runs
 
-MOCAP = Path(__file__).resolve().parents[2] / "shared" / "mocap"
+from tests.conftest import MOCAP
 WALK = MOCAP / "cmu_02_01_walk.bvh"
 CLI = [sys.executable, "-c", "from app.cli import main; main()", "terrain"]
 FEET = {"left": ("LeftFoot", "LeftToeBase"), "right": ("RightFoot", "RightToeBase")}
