@@ -48,16 +48,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     if offset is not None:
         raise UserError("--offset goes with --bvh FILE (with --shot, give --hit X Y Z)")
     rig, shots = load_shots(library)
-    if target is not None:
-        if shot_name is not None or hit is not None:
-            raise UserError("give either --target, or --shot with --hit, not both")
-        idx, desired = choice.choose_shot([s.hit_point for s in shots], choice.BALL_START, target)
-        shot = shots[idx]
-    else:
-        if shot_name is None or hit is None:
-            raise UserError("give --target X Y Z, or --shot NAME with --hit X Y Z")
-        shot = find_shot(shots, shot_name)
-        desired = np.asarray(hit, float)
+    shot, desired = _pick_shot(shots, target, shot_name, hit)
     adapter = Adapter(rig, shot)
     solver_ = LearntSolver(rig, shots)
     solver_.adapt(adapter, desired, settings, leave_out)  # compile / load the kernels, train, before timing
@@ -74,36 +65,49 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         shot.capture.write(out, a.local_rotations, a.root_positions, a.blend, f"{shot.name}_adapted")
     elif out is not None:
         _write(out, rig, shot, a, csv_rotations)
+    return {**_summary(rig, shot, a, target, aimed), "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
+            **(learnt_summary(solver_, shot, leave_out) if learnt else {}),
+            "solve_ms": round(solve_ms, 3), "out": None if out is None else str(out)}
+
+
+def _pick_shot(shots, target, shot_name, hit):
+    """(the shot, the desired hit point): chosen by the ball's path to ``target`` (2.5.1), or named."""
+    if target is not None:
+        if shot_name is not None or hit is not None:
+            raise UserError("give either --target, or --shot with --hit, not both")
+        idx, desired = choice.choose_shot([s.hit_point for s in shots], choice.BALL_START, target)
+        return shots[idx], desired
+    if shot_name is None or hit is None:
+        raise UserError("give --target X Y Z, or --shot NAME with --hit X Y Z")
+    return find_shot(shots, shot_name), np.asarray(hit, float)
+
+
+def _summary(rig, shot, a, target, aimed) -> dict:
+    """The JSON fields of an adaptation: hit points, errors, the blend, what the ball does and,
+    when a direction was asked, how far it was met."""
     r = lambda v: [round(float(x), 4) for x in v]  # noqa: E731
-    return {
-        "shot": shot.name,
-        "hit_frame": shot.hit_frame,
-        "frames": shot.num_frames,
-        "source_hit_point": r(shot.hit_point),
-        "desired_hit_point": r(a.desired_hit_point),
+    out = {
+        "shot": shot.name, "hit_frame": shot.hit_frame, "frames": shot.num_frames,
+        "source_hit_point": r(shot.hit_point), "desired_hit_point": r(a.desired_hit_point),
         "target": None if target is None else r(target),
-        "bat_error_cm": round(a.bat_error_cm, 6),
-        "blend": r(a.blend),
-        "grip_error_cm": r(a.grip_error_cm),
-        "grip_error_deg": r(a.grip_error_deg),
+        "bat_error_cm": round(a.bat_error_cm, 6), "blend": r(a.blend),
+        "grip_error_cm": r(a.grip_error_cm), "grip_error_deg": r(a.grip_error_deg),
         "max_grip_error_cm": round(float(a.grip_error_cm.max()), 4),
         "max_grip_error_deg": round(float(a.grip_error_deg.max()), 4),
-        "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
-        **(learnt_summary(solver_, shot, leave_out) if learnt else {}),
-        **({} if "face_normal" not in rig.bat else
-           hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START, a.desired_hit_point)),
-        **({} if aimed is None else {
-            "direction_requested_deg": round(aimed.requested_deg, 2), "direction_reached": aimed.reached,
-            "direction_range_deg": [round(v, 1) for v in aimed.range_deg],
-            "face_yaw_deg": round(aimed.yaw_deg, 2), "forearm_twist_deg": round(aimed.twist_deg, 2)}),
-        **({} if aimed is None or aimed.requested_elevation_deg is None else {
-            "elevation_requested_deg": round(aimed.requested_elevation_deg, 2),
-            "elevation_reached": aimed.elevation_reached,
-            "elevation_range_deg": [round(v, 1) for v in aimed.elevation_range_deg],
-            "face_tilt_deg": round(aimed.tilt_deg, 2)}),
-        "solve_ms": round(solve_ms, 3),
-        "out": None if out is None else str(out),
     }
+    if "face_normal" in rig.bat:
+        out.update(hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START,
+                               a.desired_hit_point))
+    if aimed is not None:
+        out.update({"direction_requested_deg": round(aimed.requested_deg, 2), "direction_reached": aimed.reached,
+                    "direction_range_deg": [round(v, 1) for v in aimed.range_deg],
+                    "face_yaw_deg": round(aimed.yaw_deg, 2), "forearm_twist_deg": round(aimed.twist_deg, 2)})
+    if aimed is not None and aimed.requested_elevation_deg is not None:
+        out.update({"elevation_requested_deg": round(aimed.requested_elevation_deg, 2),
+                    "elevation_reached": aimed.elevation_reached,
+                    "elevation_range_deg": [round(v, 1) for v in aimed.elevation_range_deg],
+                    "face_tilt_deg": round(aimed.tilt_deg, 2)})
+    return out
 
 
 def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset, hit, out,
