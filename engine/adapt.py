@@ -22,11 +22,12 @@ import numpy as np
 from numba import njit
 
 from . import quat
-from .ccd import ITERATIONS, KIND_MULTI, KIND_NONE, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, chain_scratch, hinge_axis, limit_euler
+from .ccd import ITERATIONS, KIND_MULTI, KIND_NONE, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, tree_fk
 from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations
+from .step_nb import Chain, hinge_axis, scratch
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
@@ -606,13 +607,10 @@ def _effective_limits(lo, hi, src, out_lo, out_hi):
 
 
 @njit(cache=True)
-def _solve_chain(solver, prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
-                 weight, handle, tol, max_iter, damping, g_rot, g_pos, cols, dofs, bak_l, bak_e):
+def _solve_chain(solver, prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, damping, s):
     if solver == 0:
-        return ccd_frame(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
-                         weight, handle, tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
-    return dls_frame(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, damping, handle,
-                     tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
+        return ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s)
+    return dls_frame(prot, ppos, ch, local, euler, damping, handle, tol, max_iter, s)
 
 
 @njit(cache=True)
@@ -630,7 +628,8 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
     nl = lj.shape[0]
     nr = rj.shape[0]
     nmax = max(nl, nr)
-    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(nmax)
+    s = scratch(nmax)
+    g_rot, g_pos, _, dofs, bak_l, bak_e = s
     loc_l = np.empty((nl, 4))
     eul_l = np.empty((nl, 3))
     src_l = np.empty((nl, 3))
@@ -650,6 +649,8 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
     r_h = (src_grot[hit, bat, 0], src_grot[hit, bat, 1], src_grot[hit, bat, 2], src_grot[hit, bat, 3])
     offset = qrot(qconj(r_h), vsub((desired[0], desired[1], desired[2]), b_h))
     work = (g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+    ch_l = Chain(lj, l_off, l_eoff, l_free, l_kind, lo_l, hi_l, l_w)    # (lo/hi: the frame's, filled below)
+    ch_r = Chain(rj, r_off, r_eoff, r_free, r_kind, lo_r, hi_r, r_w)
     n_bat = (face_local[0], face_local[1], face_local[2])
     for i in range(frames.shape[0]):
         f = frames[i]
@@ -674,9 +675,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
         pj = parents[lj[0]]
         prot = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
         ppos = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
-        err, its = _solve_chain(solver, prot, ppos, l_off, l_eoff, loc_l, eul_l, src_l, l_free, l_kind,
-                                lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot, g_pos,
-                                cols, dofs, bak_l, bak_e)
+        err, its = _solve_chain(solver, prot, ppos, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
         # the source's face at this frame (turned with the hit point), and in the hand's frame
         n_src = qrot(r_f, n_bat)
         n_last = qrot(qconj(q_at(src_grot[f], lhand)), n_src)
@@ -698,9 +697,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
             pe, _ = face_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, face_free, face_w, lo_l, hi_l, handle,
                                n_tgt, n_last, tol, FACE_ITER, work)
             if not pe < tol:        # the face held by a limit kept the bat off: the bat first
-                _solve_chain(solver, prot, ppos, l_off, l_eoff, loc_l, eul_l, src_l, l_free, l_kind,
-                             lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot, g_pos,
-                             cols, dofs, bak_l, bak_e)
+                _solve_chain(solver, prot, ppos, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
         if its > 0:
             for k in range(nl):
                 for c in range(4):
@@ -732,9 +729,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                 # wrist position first (as the dissertation), then the joints
                 # that turn the hand without moving the wrist; if limits keep the
                 # hand off its grip, both together by damped Newton
-                _solve_chain(solver, prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
-                             lo_r, hi_r, r_w, t_pos, tol, max_iter, damping, g_rot, g_pos,
-                             cols, dofs, bak_l, bak_e)
+                _solve_chain(solver, prot, ppos, ch_r, loc_r, eul_r, src_r, t_pos, tol, max_iter, damping, s)
                 oe = orient_finish(prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
                                    lo_r, hi_r, t_rot, g_rot, g_pos, 8, ori_tol)
                 eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
@@ -766,9 +761,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                         b2 = chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
                         if vnorm(vsub(b2, handle)) >= tol:
                             # the bat gave way to the grip: put it back, then the right arm again
-                            _solve_chain(solver, prl, ppl, l_off, l_eoff, loc_l, eul_l, src_l, l_free,
-                                         l_kind, lo_l, hi_l, l_w, handle, tol, max_iter, damping, g_rot,
-                                         g_pos, cols, dofs, bak_l, bak_e)
+                            _solve_chain(solver, prl, ppl, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
                             chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
                             pr2 = (g_rot[rp, 0], g_rot[rp, 1], g_rot[rp, 2], g_rot[rp, 3])
                             pp2 = (g_pos[rp, 0], g_pos[rp, 1], g_pos[rp, 2])

@@ -19,13 +19,15 @@ exactly the source floats.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 
 from .fk_nb import chain_fk
-from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx, clamp_angle, other_branch, outside, pick_branch, q_at, v_at, q_put, v_put)
+from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx,
+                      clamp_angle, other_branch, outside, pick_branch, q_at, v_at, q_put)
+from .step_nb import YES, Chain, hinge_axis, lm_position, scratch
 
 
 KIND_NONE = 0          # no free DOF: never turned
@@ -36,111 +38,7 @@ TOLERANCE = 0.001      # cm
 ITERATIONS = 200
 _STALL = 1e-7          # cm per sweep: slower progress than this means "as close as it gets"
 _STALL_REL = 0.0       # share of the error a sweep must gain (0: only _STALL; CCD may crawl near limits yet arrive)
-
-
-@njit(cache=True)
-def hinge_axis(prot, g_rot, euler, k, c):
-    """World axis of Euler column c of chain joint k (turning that column alone
-    rotates the joint's subtree about this axis through the joint)."""
-    gp = prot if k == 0 else q_at(g_rot, k - 1)
-    if c == 0:
-        return qrot(gp, (0.0, 0.0, 1.0))
-    if c == 1:
-        return qrot(qmul(gp, from_euler_zyx(euler[k, 0], 0.0, 0.0)), (0.0, 1.0, 0.0))
-    return qrot(q_at(g_rot, k), (1.0, 0.0, 0.0))
-
-
-@njit(cache=True)
-def jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, g_pos,
-                  damping, max_step, cols, dofs):
-    """One damped least-squares step on the free Euler columns, in place:
-    d_theta = W J^T (J W J^T + damping^2 I)^-1 (handle - eff), W = diag(weight).
-
-    Columns that would cross a limit are clamped there and frozen, and the
-    rest re-solved for what is left of the error (up to three rounds).
-    cols (>= 3n, 3), dofs (>= 3n, 2) int64 are scratch."""
-    n = local.shape[0]
-    m = 0
-    for k in range(n):
-        for c in range(3):
-            if free[k, c] and weight[k] > 0.0:
-                a = hinge_axis(prot, g_rot, euler, k, c)
-                col = cross(a, vsub(eff, v_at(g_pos, k)))
-                cols[m, 0] = col[0] * math.sqrt(weight[k])
-                cols[m, 1] = col[1] * math.sqrt(weight[k])
-                cols[m, 2] = col[2] * math.sqrt(weight[k])
-                dofs[m, 0] = k
-                dofs[m, 1] = c
-                m += 1
-    r = vsub(handle, eff)
-    for _round in range(3):
-        a00 = damping * damping
-        a11 = a00
-        a22 = a00
-        a01 = 0.0
-        a02 = 0.0
-        a12 = 0.0
-        for i in range(m):
-            if dofs[i, 0] < 0:
-                continue
-            x, y, z = cols[i, 0], cols[i, 1], cols[i, 2]
-            a00 += x * x
-            a11 += y * y
-            a22 += z * z
-            a01 += x * y
-            a02 += x * z
-            a12 += y * z
-        # inverse of the symmetric 3x3 by cofactors
-        c00 = a11 * a22 - a12 * a12
-        c01 = a02 * a12 - a01 * a22
-        c02 = a01 * a12 - a02 * a11
-        det = a00 * c00 + a01 * c01 + a02 * c02
-        if not abs(det) > 1e-300:
-            return
-        c11 = a00 * a22 - a02 * a02
-        c12 = a01 * a02 - a00 * a12
-        c22 = a00 * a11 - a01 * a01
-        x0 = (c00 * r[0] + c01 * r[1] + c02 * r[2]) / det
-        x1 = (c01 * r[0] + c11 * r[1] + c12 * r[2]) / det
-        x2 = (c02 * r[0] + c12 * r[1] + c22 * r[2]) / det
-        # cap the largest angle change: the linearisation holds for small turns
-        biggest = 0.0
-        for i in range(m):
-            if dofs[i, 0] < 0:
-                continue
-            k = dofs[i, 0]
-            d = (cols[i, 0] * x0 + cols[i, 1] * x1 + cols[i, 2] * x2) * math.sqrt(weight[k])
-            biggest = max(biggest, abs(d))
-        scale = 1.0 if biggest <= max_step else max_step / biggest
-        clamped = False
-        for i in range(m):
-            if dofs[i, 0] < 0:
-                continue
-            k = dofs[i, 0]
-            c = dofs[i, 1]
-            d = (cols[i, 0] * x0 + cols[i, 1] * x1 + cols[i, 2] * x2) * math.sqrt(weight[k]) * scale
-            want = euler[k, c] + d
-            got = clamp_angle(want, lo[k, c], hi[k, c])
-            if got != want:
-                # take what the limit allows, freeze it, and leave the rest to the others
-                got_d = got - euler[k, c]
-                euler[k, c] = got
-                sw = 1.0 / math.sqrt(weight[k])
-                r = (r[0] - cols[i, 0] * sw * got_d, r[1] - cols[i, 1] * sw * got_d,
-                     r[2] - cols[i, 2] * sw * got_d)
-                dofs[i, 0] = -1
-                clamped = True
-        if not clamped:
-            for i in range(m):
-                if dofs[i, 0] < 0:
-                    continue
-                k = dofs[i, 0]
-                c = dofs[i, 1]
-                euler[k, c] += (cols[i, 0] * x0 + cols[i, 1] * x1 + cols[i, 2] * x2) * math.sqrt(weight[k]) * scale
-            break
-    for k in range(n):
-        if weight[k] > 0.0 and (free[k, 0] or free[k, 1] or free[k, 2]):
-            q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+POLISH_STEPS = np.int64(8)     # Newton steps at most when a CCD sweep stalls near the handle
 
 
 @njit(cache=True)
@@ -196,65 +94,38 @@ def ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle
 
 
 @njit(cache=True)
-def polish(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, handle, tol,
-           eff, err, g_rot, g_pos, steps, scratch_cols, scratch_dofs, bak_local, bak_euler):
-    """Newton (lightly damped least-squares) steps from a CCD pose that has
-    stalled near the handle; a step that does not help is undone.
-    Returns (effector, error)."""
-    for _ in range(steps):
-        bak_local[:local.shape[0]] = local
-        bak_euler[:euler.shape[0]] = euler
-        jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, g_pos,
-                      0.01, 0.25, scratch_cols, scratch_dofs)
-        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-        err2 = vnorm(vsub(eff2, handle))
-        if not err2 < err:
-            local[:] = bak_local[:local.shape[0]]
-            euler[:] = bak_euler[:euler.shape[0]]
-            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-            break
-        progress = err2 < 0.5 * err
-        eff = eff2
-        err = err2
-        if err < tol or not progress:
-            break
-    return eff, err
-
-
-@njit(cache=True)
-def ccd_frame(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
-              polish_weight, handle, tol, max_iter, g_rot, g_pos, scratch_cols, scratch_dofs,
-              bak_local, bak_euler):
+def ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s):
     """Solve one frame in place. local (n,4) and euler (n,3, radians) hold the
     start pose and receive the result. Returns (error cm, iterations).
 
     CCD converges fast far from the handle and slowly near it (each joint only
     swings the effector onto its own joint-handle line, so the reach distance
     is fixed up a little per sweep). When a sweep gains less than half, Newton
-    steps weighted by ``polish_weight (n,)`` finish the last centimetres
+    steps weighted by ``ch.weight (n,)`` finish the last centimetres
     (all-zero weights: pure CCD)."""
+    offsets, eff_off, weight, g_rot, g_pos = ch.offsets, ch.eff_off, ch.weight, s.g_rot, s.g_pos
+    free, kind, lo, hi = ch.free, ch.kind, ch.lo, ch.hi
     eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
     err = vnorm(vsub(eff, handle))
     if not err >= tol:          # also stops on a NaN handle (pose stays the source)
         return err, 0
     do_polish = False
-    for k in range(offsets.shape[0]):
-        if polish_weight[k] > 0.0:
+    for k in range(local.shape[0]):
+        if weight[k] > 0.0:
             do_polish = True
     it = 0
     while it < max_iter:
         it += 1
         start_err = err
-        eff = ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle, tol,
-                        eff, g_rot, g_pos)
+        eff = ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle, tol, eff, g_rot, g_pos)
         eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
         err = vnorm(vsub(eff, handle))
         if err < tol:
             break
         if do_polish and err > 0.5 * start_err:
-            eff, err = polish(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, polish_weight,
-                              handle, tol, eff, err, g_rot, g_pos, 8, scratch_cols, scratch_dofs,
-                              bak_local, bak_euler)
+            # Newton (lightly damped) steps from a CCD pose that stalled near the handle
+            eff, err, _ = lm_position(prot, ppos, ch, local, euler, handle, eff, err, s, (0.01, 0.01, 0.0, YES),
+                                      (POLISH_STEPS, tol, 0.0, 0.0, YES))
             if err < tol:
                 break
         if start_err - err < max(_STALL, _STALL_REL * err):
@@ -263,25 +134,16 @@ def ccd_frame(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind,
 
 
 @njit(cache=True)
-def chain_scratch(n):
-    """Work buffers for solving one chain of up to ``n`` joints, allocated once
-    per batch: (g_rot (n,4), g_pos (n,3), cols (3n,3), dofs (3n,2), bak_l (n,4), bak_e (n,3))."""
-    return (np.empty((n, 4)), np.empty((n, 3)), np.empty((3 * n, 3)), np.empty((3 * n, 2), np.int64),
-            np.empty((n, 4)), np.empty((n, 3)))
-
-
-@njit(cache=True)
-def ccd_batch(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
-              polish_weight, handles, tol, max_iter, out_err, out_iter):
-    """Every frame f of local (F,n,4) / euler (F,n,3) solved in place."""
-    n = offsets.shape[0]
-    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
+def ccd_batch(prot, ppos, ch, local, euler, src_euler, handles, tol, max_iter, out_err, out_iter):
+    """Every frame f of local (F,n,4) / euler (F,n,3) solved in place. ``ch``: the
+    Chain's fields as a plain tuple (numba types a named tuple from Python slowly)."""
+    ch = Chain(*ch)
+    s = scratch(local.shape[1])
     for f in range(local.shape[0]):
         pr = (prot[f, 0], prot[f, 1], prot[f, 2], prot[f, 3])
         pp = (ppos[f, 0], ppos[f, 1], ppos[f, 2])
         h = (handles[f, 0], handles[f, 1], handles[f, 2])
-        e, i = ccd_frame(pr, pp, offsets, eff_off, local[f], euler[f], src_euler[f], free, kind,
-                         lo, hi, polish_weight, h, tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
+        e, i = ccd_frame(pr, pp, ch, local[f], euler[f], src_euler[f], h, tol, max_iter, s)
         out_err[f] = e
         out_iter[f] = i
 
@@ -302,6 +164,24 @@ class ChainArrays:
     hi: np.ndarray          # (n,3) radians
     parent: int             # parent joint of the chain root
     polish_weight: np.ndarray = None  # (n,) weights of the Newton finish (0: pure CCD)
+    _tuples: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def packed(self, weight=None, free=None, kind=None) -> Chain:
+        """The compiled kernels' :data:`engine.step_nb.Chain` (Newton weights ``weight``,
+        default the polish weights; ``free``/``kind`` to lock more columns)."""
+        free = self.free if free is None else free
+        kind = self.kind if kind is None else kind
+        weight = self.polish_weight if weight is None else weight
+        return Chain(self.joints, self.offsets, self.eff_off, np.ascontiguousarray(free, np.bool_),
+                     np.ascontiguousarray(kind, np.int64), self.lo, self.hi, np.ascontiguousarray(weight, float))
+
+    def kernel_tuple(self, key: str, weight=None) -> tuple:
+        """:meth:`packed` with Newton weights ``weight`` as the plain tuple the batch
+        kernels take, made once per ``key`` (a single-frame solve would spend more on
+        packing than on solving)."""
+        if key not in self._tuples:
+            self._tuples[key] = tuple(self.packed(weight))
+        return self._tuples[key]
 
 
 def chain_arrays(rig, name: str, wrist_dof: int | None = None) -> ChainArrays:
@@ -412,6 +292,7 @@ def solve(chain: ChainArrays, parent_rotations, parent_positions, local_rotation
     err = np.empty(F)
     its = np.empty(F, np.int64)
     ccd_batch(np.ascontiguousarray(parent_rotations, float), np.ascontiguousarray(parent_positions, float),
-              chain.offsets, chain.eff_off, local, euler, src, chain.free, chain.kind, chain.lo, chain.hi,
-              np.zeros(len(chain.joints)) if pure else chain.polish_weight, handles, float(tolerance), int(iterations), err, its)
+              chain.kernel_tuple("pure", np.zeros(len(chain.joints))) if pure else chain.kernel_tuple("polish"),
+              local, euler, src, handles,
+              float(tolerance), int(iterations), err, its)
     return local, err, its

@@ -216,8 +216,9 @@ from numba import njit
 
 from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, NO_FACE, ORIENT_TOL, \
     both_arms_solve, grip_solve, orient_finish
-from .ccd import ccd_frame, chain_arrays, chain_scratch, limit_euler
+from .ccd import ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, frames_fk
+from .step_nb import Chain, Scratch, scratch, with_limits
 from .quat_nb import q_at, q_put, v_at, clamp_angle, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
@@ -227,14 +228,19 @@ WARM_ITER = 80                  # Newton steps from the previous frame's right a
 
 
 @njit(cache=True)
-def _leg_frames(local, euler, parent_rot, parent_pos, sel, lj, off, eoff, free, kind, lo, hi, w,
-                ankle, a_free, a_lo, a_hi, target, target_rot, tol):
-    """Each selected frame: the leg chain ``lj`` (hip, knee, ankle) by CCD so
-    the ankle reaches ``target (F,3)``, then the ankle joint turned toward
-    ``target_rot (F,4)``; limits widened only to the start pose, locked
-    columns kept. In place on ``local (F,J,4)`` (``euler`` radians, limit branch)."""
+def _leg_frames(local, euler, parent_rot, parent_pos, sel, leg, foot, target, target_rot, tol):
+    """Each selected frame: the leg chain ``leg`` (hip, knee, ankle; the
+    :data:`engine.step_nb.Chain`'s fields as a plain tuple) by CCD so the ankle reaches
+    ``target (F,3)``, then the ankle joint turned toward ``target_rot (F,4)``
+    (``foot`` = (ankle joint, free (1,3), lo (1,3), hi (1,3))); limits widened only
+    to the start pose, locked columns kept. In place on ``local (F,J,4)``
+    (``euler`` radians, limit branch)."""
+    leg = Chain(*leg)
+    lj, off, eoff, lo, hi = leg.joints, leg.offsets, leg.eff_off, leg.lo, leg.hi
+    ankle, a_free, a_lo, a_hi = foot
     n = lj.shape[0]
-    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
+    s = scratch(n)
+    g_rot, g_pos = s.g_rot, s.g_pos
     loc = np.empty((n, 4))
     eul = np.empty((n, 3))
     src = np.empty((n, 3))
@@ -243,6 +249,7 @@ def _leg_frames(local, euler, parent_rot, parent_pos, sel, lj, off, eoff, free, 
     ea = np.empty((1, 3))
     lo_a = np.empty((1, 3))
     hi_a = np.empty((1, 3))
+    leg_w = with_limits(leg, lo_w, hi_w)      # (the frame's, filled below)
     for f in range(local.shape[0]):
         if not sel[f]:
             continue
@@ -255,9 +262,7 @@ def _leg_frames(local, euler, parent_rot, parent_pos, sel, lj, off, eoff, free, 
         src[:] = eul
         prot = (parent_rot[f, 0], parent_rot[f, 1], parent_rot[f, 2], parent_rot[f, 3])
         ppos = (parent_pos[f, 0], parent_pos[f, 1], parent_pos[f, 2])
-        ccd_frame(prot, ppos, off, eoff, loc, eul, src, free, kind, lo_w, hi_w, w,
-                  (target[f, 0], target[f, 1], target[f, 2]), tol, 200, g_rot, g_pos, cols, dofs,
-                  bak_l, bak_e)
+        ccd_frame(prot, ppos, leg_w, loc, eul, src, (target[f, 0], target[f, 1], target[f, 2]), tol, 200, s)
         chain_fk(prot, ppos, off, eoff, loc, g_rot, g_pos)
         for k in range(n):
             for c in range(4):
@@ -407,6 +412,8 @@ def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_
     ccd_er = np.empty((nr, 3))
     gs_rot = np.empty((nl, 4))
     gs_pos = np.empty((nl, 3))
+    arm_r = Chain(rj, r_off, r_eoff, r_free, r_kind, lo_r, hi_r, r_w)    # (lo/hi: the frame's, filled below)
+    s_r = Scratch(gr_rot, gr_pos, cols, dofs, bak_l, bak_e)
     prev_ok = 0
     for f in range(F):
         for k in range(nl):
@@ -455,8 +462,7 @@ def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_
                 for c in range(4):
                     loc_r[k, c] = local[f, rj[k], c]
             eul_r[:] = src_r
-            ccd_frame(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, r_w, t_pos,
-                      tol, 200, gr_rot, gr_pos, cols, dofs, bak_l, bak_e)
+            ccd_frame(pr, pp, arm_r, loc_r, eul_r, src_r, t_pos, tol, 200, s_r)
             orient_finish(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, t_rot,
                           gr_rot, gr_pos, 8, ori_tol)
             pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
@@ -563,8 +569,7 @@ def _solve_leg(rig: Rig, skeleton: Skeleton, clip: Clip, chain_name: str, g_rot,
     a = int(ch.effector)
     lim = np.radians(rig.limits[a])
     _leg_frames(local, euler, np.ascontiguousarray(g_rot[:, ch.parent]), np.ascontiguousarray(g_pos[:, ch.parent]),
-                np.ascontiguousarray(sel), ch.joints, ch.offsets, ch.eff_off, ch.free, ch.kind, ch.lo, ch.hi,
-                np.ascontiguousarray(ch.polish_weight, float), a, rig.dof[a][None].copy(),
-                np.ascontiguousarray(lim[None, :, 0]), np.ascontiguousarray(lim[None, :, 1]),
+                np.ascontiguousarray(sel), ch.kernel_tuple("polish"),
+                (a, rig.dof[a][None].copy(), np.ascontiguousarray(lim[None, :, 0]), np.ascontiguousarray(lim[None, :, 1])),
                 np.ascontiguousarray(target, float), np.ascontiguousarray(target_rot, float), 1e-3)
     clip.local_rotations[:] = local

@@ -10,11 +10,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .ccd import ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, chain_fk, chain_scratch, jacobian_step, limit_euler
+from .ccd import ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, limit_euler
+from .fk_nb import chain_fk
 from .quat_nb import vnorm, vsub
+from .step_nb import NO, Chain, lm_position, scratch
 
 DAMPING = 1.0           # cm
-MAX_STEP = 0.25         # rad per iteration and DOF
 
 
 def default_stiffness(n: int) -> np.ndarray:
@@ -23,54 +24,30 @@ def default_stiffness(n: int) -> np.ndarray:
     return np.linspace(3.0, 1.0, n)
 
 
-@njit(cache=True)
-def dls_frame(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, damping, handle,
-              tol, max_iter, g_rot, g_pos, scratch_cols, scratch_dofs, bak_local, bak_euler):
-    """Solve one frame in place (local (n,4), euler (n,3) radians).
-    weight (n,) = 1 / stiffness. Returns (error cm, iterations)."""
-    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+@njit(cache=True, inline='always')
+def dls_frame(prot, ppos, ch, local, euler, damping, handle, tol, max_iter, s):
+    """Solve one frame in place (local (n,4), euler (n,3) radians) by damped Newton
+    steps weighted by ``ch.weight (n,)`` = 1 / stiffness; an overshoot (or a limit in
+    the way) is undone and damped harder. Returns (error cm, iterations)."""
+    eff = chain_fk(prot, ppos, ch.offsets, ch.eff_off, local, s.g_rot, s.g_pos)
     err = vnorm(vsub(eff, handle))
     if not err >= tol:
         return err, 0
-    lam = damping
-    it = 0
-    while it < max_iter:
-        it += 1
-        bak_local[:local.shape[0]] = local
-        bak_euler[:euler.shape[0]] = euler
-        jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, g_pos,
-                      lam, MAX_STEP, scratch_cols, scratch_dofs)
-        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-        err2 = vnorm(vsub(eff2, handle))
-        if not err2 < err:
-            # overshoot (or a limit in the way): undo and damp harder
-            local[:] = bak_local[:local.shape[0]]
-            euler[:] = bak_euler[:euler.shape[0]]
-            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-            lam *= 4.0
-            if lam > 1e4 * (damping + 1.0):
-                break
-            continue
-        gain = err - err2
-        eff = eff2
-        err = err2
-        lam = max(damping, lam * 0.5)
-        if err < tol or gain < max(_STALL, _STALL_REL * err):
-            break
+    _, err, it = lm_position(prot, ppos, ch, local, euler, handle, eff, err, s,
+                             (damping, damping, 1e4 * (damping + 1.0), NO), (max_iter, tol, _STALL, _STALL_REL, NO))
     return err, it
 
 
 @njit(cache=True)
-def dls_batch(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, weight, damping,
-              handles, tol, max_iter, out_err, out_iter):
-    n = offsets.shape[0]
-    g_rot, g_pos, cols, dofs, bak_l, bak_e = chain_scratch(n)
+def dls_batch(prot, ppos, ch, local, euler, damping, handles, tol, max_iter, out_err, out_iter):
+    """Every frame solved in place (``ch``: the Chain's fields as a plain tuple)."""
+    ch = Chain(*ch)
+    s = scratch(local.shape[1])
     for f in range(local.shape[0]):
         pr = (prot[f, 0], prot[f, 1], prot[f, 2], prot[f, 3])
         pp = (ppos[f, 0], ppos[f, 1], ppos[f, 2])
         h = (handles[f, 0], handles[f, 1], handles[f, 2])
-        e, i = dls_frame(pr, pp, offsets, eff_off, local[f], euler[f], free, lo, hi, weight, damping,
-                         h, tol, max_iter, g_rot, g_pos, cols, dofs, bak_l, bak_e)
+        e, i = dls_frame(pr, pp, ch, local[f], euler[f], damping, h, tol, max_iter, s)
         out_err[f] = e
         out_iter[f] = i
 
@@ -89,6 +66,7 @@ def solve(chain: ChainArrays, parent_rotations, parent_positions, local_rotation
     err = np.empty(F)
     its = np.empty(F, np.int64)
     dls_batch(np.ascontiguousarray(parent_rotations, float), np.ascontiguousarray(parent_positions, float),
-              chain.offsets, chain.eff_off, local, euler, chain.free, chain.lo, chain.hi,
-              1.0 / stiff, float(damping), handles, float(tolerance), int(iterations), err, its)
+              chain.kernel_tuple("stiffness", 1.0 / stiff) if stiffness is None else tuple(chain.packed(1.0 / stiff)),
+              local, euler, float(damping), handles, float(tolerance),
+              int(iterations), err, its)
     return local, err, its
