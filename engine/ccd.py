@@ -164,7 +164,8 @@ class ChainArrays:
     hi: np.ndarray          # (n,3) radians
     parent: int             # parent joint of the chain root
     polish_weight: np.ndarray = None  # (n,) weights of the Newton finish (0: pure CCD)
-    _tuples: dict = field(default_factory=dict, repr=False, compare=False)
+    # the packed tuples, made once: never copied by dataclasses.replace (a changed chain packs its own)
+    _tuples: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def packed(self, weight=None, free=None, kind=None) -> Chain:
         """The compiled kernels' :data:`engine.step_nb.Chain` (Newton weights ``weight``,

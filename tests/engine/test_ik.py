@@ -179,3 +179,16 @@ def test_wrist_two_dof_frees_the_wrist(rig, frame_setup):
     t = frame_setup["bat"] + np.array([10.0, 10.0, 0.0])
     local, err, _ = ccd.solve(chain2, *_batch(frame_setup, [t]))
     assert err[0] < 0.1
+
+
+def test_a_replaced_chain_packs_its_own_arrays(rig):
+    """dataclasses.replace of a solved chain (reconstruct moves the effector) must not reuse
+    the first chain's packed tuple: each solves with its own effector."""
+    from dataclasses import replace
+    from engine import ccd
+    ch = ccd.chain_arrays(rig, "left_arm", 0)
+    first = ch.kernel_tuple("polish")
+    moved = replace(ch, eff_off=np.zeros(3))
+    assert moved.kernel_tuple("polish") is not first
+    assert np.array_equal(moved.kernel_tuple("polish")[2], np.zeros(3))
+    assert ch.kernel_tuple("polish") is first
