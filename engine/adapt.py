@@ -26,7 +26,7 @@ from .ccd import ITERATIONS, KIND_MULTI, KIND_NONE, TOLERANCE, ChainArrays, ccd_
 from .fk_nb import chain_fk, tree_fk
 from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
-from .skeleton import local_translations
+from .skeleton import local_translations, relative_pose
 from .step_nb import Chain, hinge_axis, scratch
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
@@ -869,10 +869,9 @@ class Adapter:
         self.subtree_l = _subtree(self.parents, int(left.joints[0]))
         self.subtree_r = _subtree(self.parents, int(right.joints[0]))
         # the right hand's source grip in the left hand's frame, per frame
-        g_lh, g_rh = self.src_grot[:, self.lhand], self.src_grot[:, self.rhand]
-        inv = quat.conjugate(g_lh)
-        self.rel_rot = np.ascontiguousarray(quat.mul(inv, g_rh))
-        self.rel_pos = np.ascontiguousarray(quat.rotate(inv, self.src_gpos[:, self.rhand] - self.src_gpos[:, self.lhand]))
+        rel_pos, rel_rot = relative_pose(self.src_grot[:, self.lhand], self.src_gpos[:, self.lhand],
+                                         self.src_grot[:, self.rhand], self.src_gpos[:, self.rhand])
+        self.rel_pos, self.rel_rot = np.ascontiguousarray(rel_pos), np.ascontiguousarray(rel_rot)
         self._chains: dict[tuple, tuple] = {}
         self._blend_cache: tuple[float, np.ndarray] = (float("nan"), np.empty(0))
         # where the right arm hangs off the left-arm chain (Spine2), for the two-arm solve

@@ -31,7 +31,7 @@ import numpy as np
 
 from . import quat
 from .rig import Rig
-from .skeleton import Clip, Skeleton, clip_fk, local_translations
+from .skeleton import Clip, Skeleton, carried_pose, clip_fk, local_translations, relative_pose
 
 PLANT_SPEED = 15.0     # cm/s: slower than this counts as planted ...
 PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
@@ -92,12 +92,9 @@ def right_hand_targets(rig: Rig, clip_global_rot, clip_global_pos, src_global_ro
     relative to the left hand in the source, applied to the clip's left hand."""
     lh = rig.skeleton.parents[rig.bat_joint]        # the bat's parent is the top hand
     rh = rig.chains["right_arm"].effector
-    inv_src = quat.conjugate(src_global_rot[:, lh])
-    rel_pos = quat.rotate(inv_src, src_global_pos[:, rh] - src_global_pos[:, lh])
-    rel_rot = quat.mul(inv_src, src_global_rot[:, rh])
-    pos = clip_global_pos[:, lh] + quat.rotate(clip_global_rot[:, lh], rel_pos)
-    rot = quat.mul(clip_global_rot[:, lh], rel_rot)
-    return pos, rot
+    rel_pos, rel_rot = relative_pose(src_global_rot[:, lh], src_global_pos[:, lh],
+                                     src_global_rot[:, rh], src_global_pos[:, rh])
+    return carried_pose(clip_global_rot[:, lh], clip_global_pos[:, lh], rel_pos, rel_rot)
 
 
 def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos,
@@ -111,13 +108,11 @@ def reattach_right_hand(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot
     the bat is let go a little toward the right hand."""
     lh = rig.skeleton.parents[rig.bat_joint]
     rh = rig.chains["right_arm"].effector
-    inv_src = quat.conjugate(src_global_rot[:, lh])
-    rel_pos = quat.rotate(inv_src, src_global_pos[:, rh] - src_global_pos[:, lh])
-    rel_rot = quat.mul(inv_src, src_global_rot[:, rh])
+    rel_pos, rel_rot = relative_pose(src_global_rot[:, lh], src_global_pos[:, lh],
+                                     src_global_rot[:, rh], src_global_pos[:, rh])
     _solve_grips(rig, skeleton, clip, rel_pos, rel_rot, tolerance)
     g_rot, g_pos = _fk(skeleton, clip)
-    t_pos = g_pos[:, lh] + quat.rotate(g_rot[:, lh], rel_pos)
-    t_rot = quat.mul(g_rot[:, lh], rel_rot)
+    t_pos, t_rot = carried_pose(g_rot[:, lh], g_pos[:, lh], rel_pos, rel_rot)
     return np.linalg.norm(g_pos[:, rh] - t_pos, axis=-1), quat.angle_between(g_rot[:, rh], t_rot)
 
 

@@ -27,6 +27,7 @@ from . import ccd, quat
 from .adapt import Adaptation, AdaptSettings, check_point, check_settings
 from .adapt import SOLVERS as KERNEL_SOLVERS
 from .fk_nb import frames_fk
+from .skeleton import carried_pose
 
 if TYPE_CHECKING:       # engine.learnt_ik (scipy's k-means) loads when a model is trained: the
     from . import learnt_ik as L    # viewer imports this module for SOLVERS at its start
@@ -204,5 +205,4 @@ def grip_targets(adapter, grot: np.ndarray, gpos: np.ndarray, frames=slice(None)
     """The trail hand's source grip (position, rotation) carried by the pose's lead hand,
     for poses ``grot``, ``gpos`` of the shot's ``frames`` (default: all)."""
     lh = adapter.lhand
-    return (gpos[:, lh] + quat.rotate(grot[:, lh], adapter.rel_pos[frames]),
-            quat.mul(grot[:, lh], adapter.rel_rot[frames]))
+    return carried_pose(grot[:, lh], gpos[:, lh], adapter.rel_pos[frames], adapter.rel_rot[frames])

@@ -140,6 +140,19 @@ def clip_fk(skeleton: Skeleton, clip: Clip) -> tuple[np.ndarray, np.ndarray]:
     return forward_kinematics(skeleton.parents, local_translations(skeleton, clip), clip.local_rotations)
 
 
+def relative_pose(frame_rot: np.ndarray, frame_pos: np.ndarray, rot: np.ndarray, pos: np.ndarray):
+    """A global pose (``rot (..., 4)``, ``pos (..., 3)``) in the frame of another (``frame_rot``,
+    ``frame_pos``): ``(position, rotation)`` relative to it (the trail hand's grip in the lead hand's)."""
+    inv = quat.conjugate(frame_rot)
+    return quat.rotate(inv, pos - frame_pos), quat.mul(inv, rot)
+
+
+def carried_pose(frame_rot: np.ndarray, frame_pos: np.ndarray, rel_pos: np.ndarray, rel_rot: np.ndarray):
+    """The global ``(position, rotation)`` of a pose held at ``rel_pos``, ``rel_rot`` in a frame
+    now at ``frame_rot``, ``frame_pos`` (the inverse of :func:`relative_pose`)."""
+    return frame_pos + quat.rotate(frame_rot, rel_pos), quat.mul(frame_rot, rel_rot)
+
+
 def bind_positions(skeleton: Skeleton) -> np.ndarray:
     """Rest-pose global joint positions ``(J, 3)`` (root at its offset)."""
     J = skeleton.num_joints
