@@ -76,8 +76,10 @@ class LearntSolver:
     def adapt(self, adapter, desired_hit_point, settings: AdaptSettings, leave_out: bool = False) -> Adaptation:
         """``adapter``'s shot adapted by ``settings.solver`` (one of :data:`SOLVERS`);
         ``leave_out``: the learnt model does not know the adapted shot."""
-        return adapt(adapter, desired_hit_point, settings,
-                     self.model(adapter.shot.name if leave_out else None))
+        model = None
+        if settings.solver in LEARNT_SOLVERS:      # ccd and dls need no model: none is trained for them
+            model = self.model(adapter.shot.name if leave_out else None)
+        return adapt(adapter, desired_hit_point, settings, model)
 
 
 def adapt(adapter, desired_hit_point, settings: AdaptSettings, model: L.LimbModel | None = None) -> Adaptation:
