@@ -1,6 +1,7 @@
 """A body for a skeleton that has no mesh of its own (a user's capture): a capsule
 along every bone, rigidly skinned to the bone's joint, a sphere for the head and
-the implement drawn as a bat in the lead hand. trimesh builds the shapes."""
+the implement its profile names (a cricket bat or a golf club) in the lead hand.
+trimesh builds the shapes."""
 from __future__ import annotations
 
 import numpy as np
@@ -17,6 +18,12 @@ HEAD_RADIUS_CM = 10.0
 BAT_BLADE_CM = (56.0, 10.8, 4.0)       # length, width, thickness of a bat's blade
 BAT_HANDLE_CM = 30.0
 BAT_TOP_CM = 5.0                       # the handle's top above the lead hand
+CLUB_SHAFT_CM = 100.0                  # a mid iron: grip to heel
+CLUB_GRIP_CM = (26.0, 1.4)             # length and radius of the grip
+CLUB_HEAD_CM = (9.0, 2.5, 5.0)         # toe-to-heel, thickness, height of the head
+STEEL = (0.72, 0.74, 0.78, 1.0)
+RUBBER = (0.12, 0.12, 0.13, 1.0)
+IMPLEMENTS = ("bat", "club")           # the kinds drawn; any other kind is not drawn
 MIN_BONE_CM = 1.0                      # shorter bones (CMU's zero-length joints) get no capsule
 
 
@@ -59,30 +66,54 @@ def _head(rig, roles_head: int | None, bind: np.ndarray, parts: list) -> None:
     parts.append(_part(ball, roles_head, SKIN))
 
 
-def _bat(rig, bind: np.ndarray, axis_world: np.ndarray, parts: list) -> None:
-    """Handle from the lead hand along ``axis_world`` (rest pose), then the blade."""
-    hand = int(rig.skeleton.parents[rig.bat_joint])
-    axis = axis_world / np.linalg.norm(axis_world)
-    top = bind[hand] - axis * BAT_TOP_CM
-    handle = trimesh.creation.cylinder(radius=1.6, height=BAT_HANDLE_CM, sections=10)
-    handle.apply_translation([0, 0, BAT_HANDLE_CM / 2])
-    parts.append(_part(_oriented(handle, top, top + axis * BAT_HANDLE_CM), hand, WILLOW))
+def _rod(start: np.ndarray, axis: np.ndarray, length: float, radius: float):
+    rod = trimesh.creation.cylinder(radius=radius, height=length, sections=10)
+    rod.apply_translation([0, 0, length / 2])
+    return _oriented(rod, start, start + axis * length)
+
+
+def _bat(top: np.ndarray, axis: np.ndarray) -> list:
+    """A cricket bat from ``top`` along ``axis``: the handle, then the blade."""
     length, width, thick = BAT_BLADE_CM
     blade = trimesh.creation.box(extents=[width, thick, length])
     blade.apply_translation([0, 0, length / 2])
     start = top + axis * BAT_HANDLE_CM
-    parts.append(_part(_oriented(blade, start, start + axis * length), hand, WILLOW))
+    return [(_rod(top, axis, BAT_HANDLE_CM, 1.6), WILLOW), (_oriented(blade, start, start + axis * length), WILLOW)]
 
 
-def bone_body(rig, head: int | None, bat_axis: np.ndarray | None) -> Mesh:
+def _club(top: np.ndarray, axis: np.ndarray) -> list:
+    """A golf club from ``top`` along ``axis``: the grip, the shaft, the head at its end."""
+    grip_length, grip_radius = CLUB_GRIP_CM
+    toe, thick, height = CLUB_HEAD_CM
+    head = trimesh.creation.box(extents=[toe, thick, height])
+    head.apply_translation([toe / 2 - 1.0, 0, height / 2])       # the hosel at the shaft's end
+    end = top + axis * CLUB_SHAFT_CM
+    return [(_rod(top, axis, grip_length, grip_radius), RUBBER), (_rod(top, axis, CLUB_SHAFT_CM, 0.6), STEEL),
+            (_oriented(head, end - axis * height, end), STEEL)]
+
+
+def _implement(rig, bind: np.ndarray, kind: str, axis_world: np.ndarray, parts: list) -> None:
+    """The implement ``kind`` held in the lead hand along ``axis_world`` (rest pose)."""
+    hand = int(rig.skeleton.parents[rig.bat_joint])
+    axis = axis_world / np.linalg.norm(axis_world)
+    top = bind[hand] - axis * BAT_TOP_CM
+    shapes = _club(top, axis) if kind == "club" else _bat(top, axis)
+    parts.extend(_part(mesh, hand, color) for mesh, color in shapes)
+
+
+def bone_body(rig, head: int | None, implement: dict | None = None) -> Mesh:
     """The body mesh (rest pose, cm) of ``rig``; ``head`` the head joint (or None);
-    ``bat_axis`` the bat's direction in the rest pose (None: no bat)."""
+    ``implement`` the rig's implement (``rig.bat``: its ``kind``, "bat" when unsaid, and
+    ``axis``, its direction in the rest pose); none drawn without an axis or for a kind
+    not in IMPLEMENTS."""
     bind = bind_positions(rig.skeleton)
     parts: list = []
     _bones(rig, bind, parts)
     _head(rig, head, bind, parts)
-    if bat_axis is not None:
-        _bat(rig, bind, np.asarray(bat_axis, float), parts)
+    implement = implement or {}
+    kind = implement.get("kind", "bat")
+    if implement.get("axis") is not None and kind in IMPLEMENTS:
+        _implement(rig, bind, kind, np.asarray(implement["axis"], float), parts)
     offsets = np.cumsum([0] + [len(p[0]) for p in parts])[:-1]
     V = int(sum(len(p[0]) for p in parts))
     joints = np.zeros((V, 4), np.int32)

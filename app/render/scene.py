@@ -91,7 +91,7 @@ def _body_meshes(rig, meshes: dict, own: bool) -> tuple[list, object]:
     (``own``: the rig is his), or capsules along the bones of another skeleton."""
     if not own:
         from app.render.bonebody import bone_body     # trimesh (~0.4 s): only for a user's skeleton
-        return [bone_body(rig, rig.roles.get("head"), rig.bat.get("axis"))], None
+        return [bone_body(rig, rig.roles.get("head"), rig.bat)], None
     levels = [meshes["Batsman"]]         # a missing level ends the chain
     for name in ("BatsmanLod1", "BatsmanLod2"):
         if meshes.get(name) is None or meshes[name].joints is None:

@@ -11,7 +11,9 @@ window's own small kernels (shadow fit, screen boxes) waited on it at their firs
 first frame came at 55 s, measured). The child also leaves this process's GIL alone.
 
 With ``softgl`` (the window runs the software-GL profile) the profile's kernels are compiled
-too, after the solver's (``app.softgl.kernels``): until then the window draws the plain way."""
+too, after the solver's (``app.softgl.kernels``): until then the window draws the plain way.
+Last, and waited for by nobody, a second child compiles the learnt solvers' kernels, so a
+later switch to one does not stall the window compiling them."""
 from __future__ import annotations
 
 import dataclasses
@@ -27,7 +29,7 @@ from app.viewer import pcpad
 from app.viewer.settings import SOLVERS, ViewerSettings
 from app.viewer.state import AppState
 from app.viewer.update import load_library, solve
-from engine import adapt, cleanup
+from engine import adapt, cleanup, learnt_ik
 from engine.learnt_solver import LEARNT_SOLVERS
 
 
@@ -65,6 +67,9 @@ class EngineWarmup:
             if self.softgl:
                 softgl_kernels.compile_all()
             self._warm_pad()
+            if self.apart and not kernels_cached(learnt=True):     # behind everything, never waited for
+                subprocess.Popen([sys.executable, "-m", "app.viewer.warmup", "--learnt"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         except Exception as e:      # a broken shot says so when the update solves it; never in this thread
             self.error = f"{type(e).__name__}: {e}"
         finally:
@@ -72,12 +77,12 @@ class EngineWarmup:
             self.ready.set()
             self.seconds = time.perf_counter() - t0
 
-    def _warm_solver(self) -> None:
+    def _warm_solver(self, solvers=None) -> None:
         """CCD and DLS on the shot the settings choose: every kernel a solve runs, compiled;
         a learnt solver too when it is the one in use (its model trains on the scratch
-        state: not every start pays for that)."""
+        state: not every start pays for that); or the ``solvers`` given."""
         state, settings = self._state, self._settings
-        warm = [s for s in SOLVERS if s not in LEARNT_SOLVERS or s == settings.solver]
+        warm = solvers or [s for s in SOLVERS if s not in LEARNT_SOLVERS or s == settings.solver]
         for solver in sorted(warm, key=lambda name: name != settings.solver):   # the one in use first
             settings.solver = solver
             solve(state, settings)
@@ -90,16 +95,26 @@ class EngineWarmup:
         pcpad.apply_preset(state, "exaggerated")
 
 
-def kernels_cached(softgl: bool = False) -> bool:
-    """Whether numba's disk cache holds the solver's and the clean-up's kernels for the
-    engine's sources as they are (a fresh index for each), and with ``softgl`` the
-    software-GL profile's."""
-    kernels = [v for module in (adapt, cleanup) for v in vars(module).values()
-               if isinstance(v, Dispatcher) and v.py_func.__module__ == module.__name__]
-    return all(k._cache._cache_file._load_index() for k in kernels) and (not softgl or softgl_kernels.cached())
+def warmed_kernels(learnt: bool = False) -> list:
+    """The compiled kernels of the solvers and the clean-up, or (``learnt``) the learnt
+    solvers' (their model's training and lookup)."""
+    modules = (learnt_ik,) if learnt else (adapt, cleanup)
+    return [v for module in modules for v in vars(module).values()
+            if isinstance(v, Dispatcher) and v.py_func.__module__ == module.__name__]
 
 
-if __name__ == "__main__":      # the child of ``apart``: compile into the disk cache, then exit
+def kernels_cached(softgl: bool = False, learnt: bool = False) -> bool:
+    """Whether numba's disk cache holds ``warmed_kernels(learnt)`` for the engine's sources
+    as they are (a fresh index for each), and with ``softgl`` the software-GL profile's."""
+    return (all(k._cache._cache_file._load_index() for k in warmed_kernels(learnt))
+            and (not softgl or softgl_kernels.cached()))
+
+
+if __name__ == "__main__":      # the children of ``apart``: compile into the disk cache, then exit
     scratch = AppState()
     if load_library(scratch):
-        EngineWarmup(scratch, ViewerSettings(), softgl="--softgl" in sys.argv)._run()
+        child = EngineWarmup(scratch, ViewerSettings(), softgl="--softgl" in sys.argv)
+        if "--learnt" in sys.argv:    # a later switch to a learnt solver finds its kernels compiled
+            child._warm_solver(LEARNT_SOLVERS)
+        else:
+            child._run()

@@ -61,3 +61,23 @@ def test_the_compile_note_is_one_line_once_a_compile_outlasts_a_moment():
     time.sleep(0.15)
     note.on_end(None)
     assert out.getvalue() == NOTE + "\n"
+
+
+def test_the_learnt_child_compiles_the_learnt_solvers_and_the_cache_check_knows_their_kernels(monkeypatch):
+    """The second child warms the learnt solvers (a later switch to one finds its kernels
+    cached) and the check for it asks for the learnt lookup's kernels, not the others'."""
+    import app.viewer.warmup as warmup_module
+    from app.viewer.settings import SOLVERS
+    from engine import adapt, learnt_ik
+    from engine.learnt_solver import LEARNT_SOLVERS
+    state, settings = _library()
+    used = []
+    monkeypatch.setattr(warmup_module, "solve", lambda st, se: used.append(se.solver))
+    EngineWarmup(state, settings)._warm_solver()
+    assert set(used) == {s for s in SOLVERS if s not in LEARNT_SOLVERS} and used[0] == settings.solver
+    used.clear()
+    EngineWarmup(state, settings)._warm_solver(LEARNT_SOLVERS)
+    assert used == list(LEARNT_SOLVERS)
+    assert learnt_ik._lookup_frames in warmup_module.warmed_kernels(learnt=True)
+    assert learnt_ik._lookup_frames not in warmup_module.warmed_kernels()
+    assert {k.py_func.__module__ for k in warmup_module.warmed_kernels()} == {adapt.__name__, "engine.cleanup"}
