@@ -12,7 +12,7 @@ import typer
 from app.cli.render import check_png_out, save_png_atomic
 from app.errors import MAX_POSITION_CM, UserError, cli_errors, numbers, shorten
 from app.errors import falloff as falloff_cm
-from engine import choice, quat
+from engine import choice
 from engine.library import find_shot
 from engine.userlib import load_shots
 from engine.skeleton import Clip, bind_positions, clip_fk, skinning_matrices
@@ -392,21 +392,15 @@ def components_poses(rig, clip, part: str = "upper", sds=(-3, -2, -1, 0, 1, 2, 3
 
 
 def write_components_strip(rig, shot, path: Path, part: str = "upper", cell: int = 220) -> dict:
-    """Figure 3.2: rows PC1..PC3, columns -3..+3 SD. Uses the renderer when it is
-    available, else stick figures drawn with Pillow."""
+    """Figure 3.2: rows PC1..PC3, columns -3..+3 SD, the skinned batsman in each cell."""
     path = Path(path)
     check_png_out(path, "--components-strip")
     sds = (-3, -2, -1, 0, 1, 2, 3)
     p, root, rot = components_poses(rig, shot.clip, part, sds)
-    method = "renderer"
-    try:
-        img = _render_strip_gl(rig, root, rot, cell)
-    except Exception as e:  # renderer missing or no GL: stick figures still show the PCs
-        method = f"stick figures ({type(e).__name__})"
-        img = _render_strip_sticks(rig, root, rot, cell)
+    img = _render_strip_gl(rig, root, rot, cell)
     img = _label_strip(img, shot.name, part, p, sds, cell)
     save_png_atomic(img, path)
-    return {"shot": shot.name, "part": part, "file": str(path), "method": method,
+    return {"shot": shot.name, "part": part, "file": str(path),
             "rows": [f"PC{k + 1}" for k in range(root.shape[0])], "columns_sd": list(sds),
             "variance_3pcs": round(float(p.cumulative[min(2, p.num_components - 1)]), 4)}
 
@@ -421,64 +415,23 @@ def _view_axes():
     return right, up, f
 
 
-def _bat_segment(rig, g_rot, g_pos):
-    """Bat handle top and toe ``(..., 3)`` from the top hand's global pose."""
-    lh = int(rig.skeleton.parents[rig.bat_joint])
-    bat = rig.bat
-    axis = np.asarray(bat["axis"], float)
-    grip = np.asarray(bat["left_grip"], float)
-    top = grip - axis * bat["grip_to_top"]
-    toe = top + axis * bat["length"]
-    r, p = g_rot[..., lh, :], g_pos[..., lh, :]
-    return p + quat.rotate(r, top), p + quat.rotate(r, toe)
-
-
-def _render_strip_sticks(rig, root, rot, cell: int):
-    rows, cols = root.shape[:2]
-    J = rot.shape[-2]
-    clip = Clip(root.reshape(-1, 3), rot.reshape(-1, J, 4))
-    g_rot, g_pos = clip_fk(rig.skeleton, clip)
-    top, toe = _bat_segment(rig, g_rot, g_pos)
-    right, up, _ = _view_axes()
-    # centre every cell on the average root so the root's own motion still shows
-    centre = root.reshape(-1, 3).mean(axis=0)
-    pts = g_pos - centre
-    scale = cell / 260.0
-    img = Image.new("RGB", (cols * cell, rows * cell + 46), (245, 245, 240))
-    draw = ImageDraw.Draw(img)
-    names = rig.skeleton.names
-    parents = rig.skeleton.parents
-
-    def to_px(v, r, c):
-        x = c * cell + cell / 2 + scale * float(v @ right)
-        y = 46 + r * cell + cell * 0.42 - scale * float(v @ up)
-        return (x, y)
-
-    for i in range(rows * cols):
-        r, c = divmod(i, cols)
-        ground = np.array([0.0, -centre[1], 0.0])
-        draw.line([to_px(ground - 60 * right, r, c), to_px(ground + 60 * right, r, c)], fill=(180, 180, 170), width=2)
-        for j in range(1, rig.animated_joints):
-            n = names[j]
-            col = (40, 90, 220) if n.startswith("Left") else (210, 50, 40) if n.startswith("Right") else (60, 60, 60)
-            draw.line([to_px(pts[i, parents[j]], r, c), to_px(pts[i, j], r, c)], fill=col, width=3)
-        draw.line([to_px(top[i] - centre, r, c), to_px(toe[i] - centre, r, c)], fill=(150, 100, 40), width=5)
-        hx, hy = to_px(pts[i, names.index("Head")] if "Head" in names else pts[i, 0], r, c)
-        draw.ellipse([hx - 6, hy - 6, hx + 6, hy + 6], outline=(60, 60, 60), width=2)
-    return img
-
-
 def _render_strip_gl(rig, root, rot, cell: int):
     """Skinned batsman per cell through the render API (app.render)."""
     from app.render import scene as rs  # moderngl: when it renders
-    rows, cols = root.shape[:2]
     J = rot.shape[-2]
     g_rot, g_pos = clip_fk(rig.skeleton, Clip(root.reshape(-1, 3), rot.reshape(-1, J, 4)))
     skin = skinning_matrices(g_rot, g_pos, bind_positions(rig.skeleton))
     ctx = rs.offscreen_context()
-    renderer = rs.SceneRenderer(ctx, rig)
+    try:
+        return _render_cells(rs, rs.SceneRenderer(ctx, rig), root, skin, cell)
+    finally:
+        ctx.release()
+
+
+def _render_cells(rs, renderer, root, skin, cell: int):
+    rows, cols = root.shape[:2]
     centre = root.reshape(-1, 3).mean(axis=0)
-    right, up, f = _view_axes()
+    f = _view_axes()[2]
     target = np.array([centre[0], 88.0, centre[2]])
     eye = target - f * 600.0
     view = rs.look_at(eye, target)

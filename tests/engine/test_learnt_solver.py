@@ -5,7 +5,6 @@ frames of blend 0 are the source's bit for bit, the CLI's bad inputs are one lin
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -5,7 +5,6 @@ CCD finish meets the kept joints, the CLI's file read back by the BVH reader."""
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest

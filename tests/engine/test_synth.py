@@ -204,7 +204,6 @@ def test_plant_targets_follow_near_plants_and_hold_far_ones():
 # ------------------------------------------------ clean-up on the bundled shots
 def _shot_names():
     import json
-    from pathlib import Path
     lib = ROOT / "assets" / "shots" / "library.json"
     return [s["name"] for s in json.loads(lib.read_text())]
 

@@ -6,7 +6,6 @@ captured; bad terrain specs get one line and exit 2."""
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest

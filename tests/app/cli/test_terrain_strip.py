@@ -3,7 +3,6 @@ draws the walk over its terrain mesh, terrain pixels under the feet in every cel
 ``view --terrain SPEC`` draws the mesh instead of the pitch; bad input is one line."""
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest

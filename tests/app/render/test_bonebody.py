@@ -1,6 +1,5 @@
 """The body drawn for a skeleton without a mesh of its own: capsules, a head, and the
 implement its profile names held in the lead hand."""
-import dataclasses
 
 import numpy as np
 

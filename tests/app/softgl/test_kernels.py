@@ -1,7 +1,6 @@
 """app.softgl.kernels: until the software-GL kernels are compiled the window draws the plain
 way (whole UI, whole present, ghost in the scene); the warm-up's compile gives numba's cache
 the very signatures the viewer calls, so the window never compiles them itself."""
-import numpy as np
 import pytest
 
 from app.softgl import kernels

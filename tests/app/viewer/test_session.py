@@ -24,7 +24,6 @@ from app.viewer.state import AppState
 from engine.synth import MAX_ABS_SCORE
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
-from tests.conftest import ROOT
 SIZE = (960, 600)
 
 
