@@ -20,6 +20,7 @@ import moderngl
 import numpy as np
 
 from app import softgl
+from app.errors import UserError
 from app.render.mesh import load_glb
 from app.softgl import kernels
 from engine.skeleton import bind_positions
@@ -78,8 +79,14 @@ class Frame:
 
 
 def offscreen_context():
-    """A standalone (headless, EGL) moderngl context, GL 3.3 core or newer."""
-    return moderngl.create_standalone_context(backend="egl", require=330)
+    """A standalone (headless, EGL) moderngl context, GL 3.3 core or newer; without one,
+    a UserError the CLI says in one line (exit 2)."""
+    try:
+        return moderngl.create_standalone_context(backend="egl", require=330)
+    except Exception as e:          # moderngl says why in its own words: keep its first line
+        reason = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise UserError(f"no offscreen OpenGL 3.3 context (Mesa's EGL: Debian's libegl-mesa0 and "
+                        f"libgl1-mesa-dri): {reason}") from None
 
 
 def _samples(fbo) -> int:

@@ -549,3 +549,18 @@ def test_an_orbit_draws_the_static_scene_single_sampled_until_the_camera_holds_s
     diff = changed(still, moving, tol=6)
     assert 0.001 < diff.mean() < 0.1                                  # edges only
     assert np.abs(still.mean((0, 1)) - moving.mean((0, 1))).max() < 3.0
+
+
+def test_no_offscreen_gl_is_one_line_for_the_cli(monkeypatch):
+    """A machine without EGL: the commands that render say so in one line (exit 2), no traceback."""
+    import moderngl
+
+    from app.errors import UserError
+    from app.render.scene import offscreen_context
+
+    def no_egl(**kwargs):
+        raise Exception("eglGetDisplay failed\nmore detail")
+    monkeypatch.setattr(moderngl, "create_standalone_context", no_egl)
+    with pytest.raises(UserError) as e:
+        offscreen_context()
+    assert "\n" not in str(e.value) and "eglGetDisplay failed" in str(e.value)
