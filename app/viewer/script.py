@@ -8,7 +8,8 @@ frames per second) and a ``"type"``:
   button ``left|right|middle``), ``scroll {dy, x?, y?}``
 - ``drag {button, from: [x,y], to: [x,y], frames}``: press, move, release
 - ``drag_target {to: [x,y,z] | to_px: [x,y], frames}``: grab the target where
-  it is drawn and drag it to a world point on its plane (or a pixel)
+  it is drawn and drag it to a world point on its plane (z = -60; another z is
+  refused) or to a pixel
 - ``drag_target_path {points: [[x,y,z], ...], frames}`` or ``{circle: {center:
   [x,y] | "target", radius, turns}, frames}``: keep dragging the target along a
   path, one mouse move per frame (a circle around "target" passes through it)
@@ -39,6 +40,7 @@ from app.viewer.interaction import BUTTON_NAMES, KEY_NAMES, LEFT
 from app.viewer.capture import check_formats
 from app.jsonfile import read_json
 from app.viewer.pcpad import PadRequest, check_request
+from app.viewer.picking import TARGET_PLANE_Z
 from app.viewer.settings import MAX_FRAME_SETTING, check_setting
 from engine.synth import MAX_ABS_SCORE
 
@@ -51,7 +53,8 @@ MAX_SCRIPT_ACTIONS = 200_000        # per-frame actions all events expand to, to
 MAX_PIXEL = 100_000.0               # |window pixel| of a mouse position
 MAX_SCROLL = 1_000.0                # |scroll step|
 MAX_TURNS = 1_000.0                 # |turns| of a circle
-MAX_PATH_CHARS = 4096               # a screenshot or export path
+MAX_PATH_CHARS = 4096
+PLANE_TOLERANCE_CM = 0.5            # a drag_target's world point off the target plane by more: refused               # a screenshot or export path
 
 
 def load_script(path: str | Path) -> list[dict]:
@@ -173,6 +176,9 @@ class ScriptPlayer:
         n = self._frames(e, 10)
         memo: dict = {}
         to_world = _vector(e["to"], 3, "to", MAX_POSITION_CM) if "to" in e else None
+        if to_world is not None and abs(to_world[2] - TARGET_PLANE_Z) > PLANE_TOLERANCE_CM:
+            raise ValueError(f"'to' {shorten(str(e['to']))}: the target slides on the plane z = {TARGET_PLANE_Z:g} "
+                             f"(behind the stumps); give [x, y, {TARGET_PLANE_Z:g}]")
         to_px = _vector(e["to_px"], 2, "to_px", MAX_PIXEL) if to_world is None and "to_px" in e else None
         if to_world is None and to_px is None:
             raise KeyError("to")

@@ -190,6 +190,7 @@ def valid_events():
     xy, score = st.lists(st.floats(-1000, 3000), min_size=2, max_size=2), st.lists(st.floats(-20, 20), min_size=2,
                                                                                    max_size=2)
     world = st.lists(st.floats(-300, 300), min_size=3, max_size=3)
+    on_plane = st.tuples(st.floats(-300, 300), st.floats(-300, 300)).map(lambda xy: [*xy, sc.TARGET_PLANE_Z])
     kinds = list(setting_kinds().items())
     setting = st.sampled_from(kinds).flatmap(lambda kk: st.fixed_dictionaries(
         {"type": st.just("set"), "frame": at, "key": st.just(kk[0]), "value": valid_values(*kk)}))
@@ -197,7 +198,7 @@ def valid_events():
         st.fixed_dictionaries({"type": st.just("mouse_move"), "frame": at, "x": st.floats(-1000, 3000),
                                "y": st.floats(-1000, 3000)}),
         st.fixed_dictionaries({"type": st.just("drag"), "frame": at, "from": xy, "to": xy, "frames": n}),
-        st.fixed_dictionaries({"type": st.just("drag_target"), "t": st.floats(0, 0.3), "to": world, "frames": n}),
+        st.fixed_dictionaries({"type": st.just("drag_target"), "t": st.floats(0, 0.3), "to": on_plane, "frames": n}),
         st.fixed_dictionaries({"type": st.just("drag_target_path"), "frame": at, "frames": n,
                                "circle": st.fixed_dictionaries({"radius": st.floats(0, 100),
                                                                 "turns": st.floats(-3, 3)})}),
@@ -244,6 +245,7 @@ def test_setting_kinds_are_real_settings_only():
     ({"type": "key", "frame": 1e20, "key": "h"}, "frame budget is 24"),
     ({"type": "key", "frame": 10 ** 400, "key": "h"}, "frame budget is 24"),
     ({"type": "drag_target_path", "frame": 0, "circle": {"radius": 1e308}, "frames": 5}, "radius"),
+    ({"type": "drag_target", "frame": 0, "to": [-85, 40, 210], "frames": 5}, "plane z = -60"),
 ])
 def test_seen_bad_events_are_refused_at_load(ev, needle):
     with pytest.raises(UserError) as e:
