@@ -29,6 +29,7 @@ IMPLEMENT_JOINT = "HitpointImplement"   # appended under the lead hand; never wr
 KNOWN_UNITS_CM = (0.1, 1.0, 2.54, 5.6444, 100.0)   # mm, cm, inch, CMU's unit, m
 STANDING_HEIGHT_CM = 170.0             # a typical adult, to guess a file's unit
 BALL_DIAMETER_CM = 7.2
+HELD_SPAN_CM = 30.0                    # hands further apart at the hit hold no implement (golf swing: 16.5 cm)
 
 
 @dataclass
@@ -217,8 +218,11 @@ def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: i
     if "axis" not in rig.bat:   # the implement's shaft: from the lead hand through the trail hand
         lead, trail = roles[f"{prof.lead}_hand"], roles[f"{prof.trail}_hand"]
         h = hit.frame
-        axis = quat.rotate(quat.conjugate(grot[h, lead]), gpos[h, trail] - gpos[h, lead])
+        span = gpos[h, trail] - gpos[h, lead]
+        axis = quat.rotate(quat.conjugate(grot[h, lead]), span)
         rig.bat["axis"] = (axis / max(float(np.linalg.norm(axis)), 1e-9)).tolist()
+        # Hands far apart at the hit (a walk: 57 cm) hold nothing: the effector stays, none is drawn.
+        rig.bat["held"] = bool(np.linalg.norm(span) <= HELD_SPAN_CM)
     if "face_normal" not in rig.bat:
         rig.bat["face_normal"] = _leading_side(rig, clip, grot, gpos, hit.frame).tolist()
     shot = Shot(path.stem, path.name, hit.frame, f"{prof.name} capture", skel, clip, effector)

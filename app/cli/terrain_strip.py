@@ -6,7 +6,6 @@ the terrain height under each foot joint marked, so a foot on a bump, sunk into 
 or floating above it can be seen."""
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -74,9 +73,7 @@ def terrain_strip(rig, shot, ground, count: int, cell: tuple[int, int]):
     props = _terrain_props(ground, g_pos, shot.clip.root_positions)
     skins = skinning_matrices(g_rot[frames], g_pos[frames], bind_positions(rig.skeleton))
     ctx = offscreen_context()
-    # a walk carries no implement: the body without the bat the capture profile adds to the lead hand
-    walker = dataclasses.replace(rig, bat={k: v for k, v in rig.bat.items() if k != "axis"})
-    renderer = SceneRenderer(ctx, walker)
+    renderer = SceneRenderer(ctx, rig)       # a walk's hands hold nothing: no implement drawn
     W, H = cell
     sheet = Image.new("RGB", (W * len(frames), TITLE_H + 2 * H + LABEL_H), (24, 28, 36))
     draw = ImageDraw.Draw(sheet)

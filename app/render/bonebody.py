@@ -104,15 +104,15 @@ def _implement(rig, bind: np.ndarray, kind: str, axis_world: np.ndarray, parts: 
 def bone_body(rig, head: int | None, implement: dict | None = None) -> Mesh:
     """The body mesh (rest pose, cm) of ``rig``; ``head`` the head joint (or None);
     ``implement`` the rig's implement (``rig.bat``: its ``kind``, "bat" when unsaid, and
-    ``axis``, its direction in the rest pose); none drawn without an axis or for a kind
-    not in IMPLEMENTS."""
+    ``axis``, its direction in the rest pose, and ``held``, false where the hands hold
+    nothing); none drawn without an axis, when not held or for a kind not in IMPLEMENTS."""
     bind = bind_positions(rig.skeleton)
     parts: list = []
     _bones(rig, bind, parts)
     _head(rig, head, bind, parts)
     implement = implement or {}
     kind = implement.get("kind", "bat")
-    if implement.get("axis") is not None and kind in IMPLEMENTS:
+    if implement.get("axis") is not None and implement.get("held", True) and kind in IMPLEMENTS:
         _implement(rig, bind, kind, np.asarray(implement["axis"], float), parts)
     offsets = np.cumsum([0] + [len(p[0]) for p in parts])[:-1]
     V = int(sum(len(p[0]) for p in parts))

@@ -21,18 +21,24 @@ def _reach_along_axis(rig, implement):
 
 def test_the_implement_drawn_is_the_one_the_profile_names(tmp_path):
     rig = load_capture(kit.write_family(tmp_path / "n.bvh", "neuron")).rig
-    bat = _reach_along_axis(rig, dict(rig.bat, kind="bat"))
-    club = _reach_along_axis(rig, dict(rig.bat, kind="club"))
-    none = _reach_along_axis(rig, dict(rig.bat, kind="none"))
+    bat = _reach_along_axis(rig, dict(rig.bat, kind="bat", held=True))
+    club = _reach_along_axis(rig, dict(rig.bat, kind="club", held=True))
+    none = _reach_along_axis(rig, dict(rig.bat, kind="none", held=True))
     assert abs(bat - (BAT_HANDLE_CM + BAT_BLADE_CM[0] - BAT_TOP_CM)) < 1.0
     assert abs(club - (CLUB_SHAFT_CM - BAT_TOP_CM)) < 1.0
     assert none < 0.5 * bat                  # the hand's own capsule only
     no_axis = {k: v for k, v in rig.bat.items() if k != "axis"}
-    assert _reach_along_axis(rig, no_axis) == none
+    assert _reach_along_axis(rig, dict(no_axis, held=True)) == none
+    assert _reach_along_axis(rig, dict(rig.bat, kind="bat", held=False)) == none
 
 
-def test_the_cmu_profile_holds_a_club(tmp_path):
-    """CMU's captures are a golf swing: its profile names a club, and a club is drawn."""
-    rig = load_capture(kit.write_family(tmp_path / "c.bvh", "cmu")).rig
-    assert rig.bat["kind"] == "club"
-    assert _reach_along_axis(rig, rig.bat) > CLUB_SHAFT_CM - BAT_TOP_CM - 1.0
+def test_hands_that_hold_nothing_get_no_implement(tmp_path):
+    """A walk's hands are half a metre apart at its 'hit': the capture says nothing is held
+    and the body has no implement; a golf swing's hands (16.5 cm) hold the club its profile
+    (CMU's) names."""
+    from tests.conftest import MOCAP
+    walk = load_capture(MOCAP / "cmu_02_01_walk.bvh").rig
+    golf = load_capture(MOCAP / "cmu_63_02_golf_swing.bvh").rig
+    assert not walk.bat["held"] and golf.bat["held"] and golf.bat["kind"] == "club"
+    assert _reach_along_axis(walk, walk.bat) == _reach_along_axis(walk, dict(walk.bat, kind="none"))
+    assert _reach_along_axis(golf, golf.bat) > CLUB_SHAFT_CM - BAT_TOP_CM - 1.0
