@@ -26,7 +26,7 @@ from numba import njit
 
 from .fk_nb import chain_fk
 from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx,
-                      clamp_angle, other_branch, outside, pick_branch, q_at, v_at, q_put)
+                      clamp_angle, other_branch, outside, pick_branch, q_at, v_at, q_put, wrap)
 from .step_nb import YES, Chain, hinge_axis, lm_position, scratch
 
 
@@ -221,6 +221,25 @@ def _outside_np(a, lo, hi):
 
 
 @njit(cache=True)
+def _gimbal_split(e, lo, hi):
+    """At the ZYX gimbal (y = +-90) only z + x (y = -90) or z - x (y = +90) is the
+    rotation: the split of it that lies best inside [lo, hi] (3,), so a pose on the
+    gimbal is not read as outside limits an equal rotation keeps."""
+    if abs(abs(e[1]) - 0.5 * math.pi) > 1e-7:
+        return e
+    sg = 1.0 if e[1] < 0.0 else -1.0             # the rotation is Rz(z + sg x) Ry(y)
+    total = e[0] + sg * e[2]
+    best = e
+    best_out = outside(e[0], lo[0], hi[0]) + outside(e[2], lo[2], hi[2])
+    for z in (clamp_angle(e[0], lo[0], hi[0]), wrap(total - sg * clamp_angle(e[2], lo[2], hi[2]))):
+        x = wrap(sg * (total - z))
+        o = outside(z, lo[0], hi[0]) + outside(x, lo[2], hi[2])
+        if o < best_out - 1e-12:
+            best, best_out = (z, e[1], x), o
+    return best
+
+
+@njit(cache=True)
 def _limit_euler_nb(local, lo, hi, out):
     """local (M,J,4), lo/hi (J,3) radians -> out (M,J,3) radians, best branch."""
     for i in range(local.shape[0]):
@@ -232,7 +251,7 @@ def _limit_euler_nb(local, lo, hi, out):
             for c in range(3):
                 s1 += outside(e1[c], lo[j, c], hi[j, c])
                 s2 += outside(e2[c], lo[j, c], hi[j, c])
-            e = e2 if s2 < s1 - 1e-11 else e1
+            e = _gimbal_split(e2 if s2 < s1 - 1e-11 else e1, lo[j], hi[j])
             out[i, j, 0] = e[0]
             out[i, j, 1] = e[1]
             out[i, j, 2] = e[2]

@@ -14,12 +14,33 @@ Anatomical ranges (DESIGN.md: a shot that needs more is re-keyed, the limit is n
   the thumb down: pronation; so [-90, 85], mirrored on the right.
 - Hand z, wrist flexion/extension: flexion 80, extension 70 (AAOS 1965). For the
   left hand +z lifts the fingers (extension): [-80, 70], mirrored on the right.
-Not yet anatomical (issue 14, see the shots' report): Hand y, the wrist's
-radial/ulnar deviation (AAOS 20 / 30), holds [-75, 55] because the rig holds the
-handle square across the palm where a real top hand holds it diagonally (the
-bat's hang lives in the wrist); Arm z keeps +-170 because the left upper arm
-crossing the chest in the shared stance lies near the ZYX parameterisation's
-wrap (z about -155..-170 with y 0..30).
+- Arm (the humerus under the clavicle), R = Rz(z) Ry(y) Rx(x) with x along the bone
+  (left arm: +X out to the side, +Y up, +Z forward): the bone points along
+  (cos y cos z, cos y sin z, -sin y), so z is its angle in the frontal plane (-90
+  hanging, 0 out to the side, +90 overhead) and y its angle out of that plane (-
+  forward, + backward). Abduction 180 (AAOS 1965): z up to +90. Extension 60 (AAOS):
+  y up to +60 (the hanging arm swung back). Flexion 180 (AAOS) goes forward through
+  y = -90 and on up to z = +90, y = 0, so y stays within [-90, 60]: the second ZYX
+  branch (y past -90, with the twist turned by 180) never fits the box, and the box
+  means one rotation only. Across the front the frontal-plane angle wraps at +-180
+  where the crossed arm reaches shoulder height (horizontal flexion 135, AAOS, is
+  z = +-180, y = -45), which a box cannot hold on both sides: z runs down to -180 (the
+  crossed arm below shoulder height, as in the stance and the drives), and the
+  authoring check (tools/shots_check.shoulder_problems) measures horizontal flexion
+  135 / extension 45 on the bone's direction instead.
+Not yet anatomical (issue 14, see the shots' report):
+- Hand y, the wrist's radial/ulnar deviation (AAOS 20 / 30), holds [-75, 55]. Measured:
+  -y turns the left hand toward +Z, the thumb (the T-pose's palm-down hand, and the
+  batsman mesh's thumb), so -y is radial deviation on the left and +y on the right.
+  The rig holds the handle square across the palm with the toe beyond the little
+  finger, where a real top hand has the little finger at the handle's top and the
+  toe beyond the thumb and forefinger; so the bat's hang asks the wrist for radial
+  deviation (the shots use up to 75). Turning the grip round (the toe toward the
+  thumb, diagonal 40-70 deg) asks instead for 60-145 deg of ulnar deviation and
+  100-160 of forearm roll with today's key poses: the bat keys of every shot would
+  have to be re-authored for it.
+- Arm x + ArmRoll x, the humeral rotation (AAOS internal 70 / external 90), hold +-90
+  each: the bat's poses in the backlifts and follow-throughs ask for up to 150-180.
 """
 import json
 from pathlib import Path
@@ -54,7 +75,7 @@ def side(prefix, s):
     L = prefix
     return [
         joint(f"{L}Shoulder", "Spine2", [3.0 * s, 12.0, 0.0], "zy", lim([-25, 35], [-30, 30], None)),
-        joint(f"{L}Arm", f"{L}Shoulder", [15.0 * s, 0.0, 0.0], "zyx", lim([-170, 170], [-160, 75], [-90, 90])),
+        joint(f"{L}Arm", f"{L}Shoulder", [15.0 * s, 0.0, 0.0], "zyx", lim([-180, 90], [-90, 60], [-90, 90])),
         joint(f"{L}ArmRoll", f"{L}Arm", [14.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 90])),
         joint(f"{L}ForeArm", f"{L}ArmRoll", [14.0 * s, 0.0, 0.0], "y", lim(None, [-150, 0], None)),
         joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 85])),

@@ -125,6 +125,8 @@ def report(rig, name, clip, hit):
               f"runs {chk.planted_runs(p, FPS)}")
     for v in chk.limit_violations(rig, clip.local_rotations):
         print("  LIMIT", v)
+    for v in chk.shoulder_problems(rig, g_rot, g_pos):
+        print("  SHOULDER", v)
     shot = Shot(name, f"{name}.bvh", hit, "", rig.skeleton, clip, rig.bat_joint)
     m = chk.hit_measures(rig, shot)
     print(f"  hit: {m['contact']} (face_to_ball {m['face_to_ball']:.2f}), azimuth {m['azimuth_deg']:.1f}, "

@@ -183,3 +183,47 @@ def hit_problems(name: str, m: dict) -> list[str]:
             out.append(f"bat at {m['speed_mps']:.1f} m/s at impact (drive ~{DRIVE_PEAK_MPS})")
     return out
 
+
+
+# ------------------------------------------------------------- the shoulder (issue 14 item 1)
+# The rig's Arm limits are a box in ZYX Euler angles, which cannot say how far the
+# humerus may cross the body at shoulder height (its frontal-plane angle wraps at
+# +-180 there). The authoring check measures that on the arm's direction in the
+# chest frame instead: near shoulder height (elevation 45-135 deg from hanging), its
+# horizontal angle from straight out to the side stays within horizontal flexion
+# 135 (across the front) and horizontal extension 45 (behind the frontal plane)
+# (AAOS, Joint Motion: Method of Measuring and Recording, 1965).
+HORIZONTAL_FLEXION = 135.0
+HORIZONTAL_EXTENSION = 45.0
+SHOULDER_BAND = (45.0, 135.0)     # elevation (deg from hanging) where the horizontal range applies
+
+
+def humerus_angles(rig, global_rotations, global_positions, side: str) -> tuple[np.ndarray, np.ndarray]:
+    """Elevation from hanging and horizontal angle (deg, 0 straight out to the side,
+    + forward and across) of one upper arm ``(F,)`` each, in the chest (Spine2) frame,
+    the right arm mirrored onto the left."""
+    sk = rig.skeleton
+    a, e = sk.index(side + "Arm"), sk.index(side + "ForeArm")
+    chest = global_rotations[:, sk.index("Spine2")]
+    d = quat.rotate(quat.conjugate(chest), global_positions[:, e] - global_positions[:, a])
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    if side == "Right":
+        d = d * np.array([-1.0, 1.0, 1.0])
+    elevation = np.degrees(np.arccos(np.clip(-d[:, 1], -1.0, 1.0)))
+    return elevation, np.degrees(np.arctan2(d[:, 2], d[:, 0]))
+
+
+def shoulder_problems(rig, global_rotations, global_positions) -> list[str]:
+    """Frames where an upper arm near shoulder height crosses the body further than the
+    documented horizontal flexion, or swings behind it further than horizontal extension."""
+    out = []
+    for side in ("Left", "Right"):
+        elev, horiz = humerus_angles(rig, global_rotations, global_positions, side)
+        band = (elev >= SHOULDER_BAND[0]) & (elev <= SHOULDER_BAND[1])
+        over = np.where(band, np.maximum(horiz - HORIZONTAL_FLEXION, -HORIZONTAL_EXTENSION - horiz), -np.inf)
+        bad = over > 0.5
+        if np.any(bad):
+            f = int(np.argmax(over))
+            out.append(f"{side} upper arm at {horiz[f]:.0f} deg horizontally (elevation {elev[f]:.0f}) at frame {f} "
+                       f"(range {-HORIZONTAL_EXTENSION:.0f}..{HORIZONTAL_FLEXION:.0f}, {int(bad.sum())} frames)")
+    return out
