@@ -225,7 +225,7 @@ def _gimbal_split(e, lo, hi):
     """At the ZYX gimbal (y = +-90) only z + x (y = -90) or z - x (y = +90) is the
     rotation: the split of it that lies best inside [lo, hi] (3,), so a pose on the
     gimbal is not read as outside limits an equal rotation keeps."""
-    if abs(abs(e[1]) - 0.5 * math.pi) > 1e-7:
+    if abs(abs(e[1]) - 0.5 * math.pi) > 1e-5:      # asin near +-1: a clamp onto -90 reads ~1e-6 off
         return e
     sg = 1.0 if e[1] < 0.0 else -1.0             # the rotation is Rz(z + sg x) Ry(y)
     total = e[0] + sg * e[2]
