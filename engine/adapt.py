@@ -24,7 +24,7 @@ from numba import njit
 from . import quat
 from .ccd import ITERATIONS, KIND_MULTI, KIND_NONE, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, tree_fk
-from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
+from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations, relative_pose
 from .step_nb import Chain, hinge_axis, scratch
@@ -602,8 +602,9 @@ def _effective_limits(lo, hi, src, out_lo, out_hi):
     (and never jump to the far limit)."""
     for k in range(lo.shape[0]):
         for c in range(3):
-            out_lo[k, c] = min(lo[k, c], src[k, c])
-            out_hi[k, c] = max(hi[k, c], src[k, c])
+            a = into_range(src[k, c], lo[k, c], hi[k, c])
+            out_lo[k, c] = min(lo[k, c], a)
+            out_hi[k, c] = max(hi[k, c], a)
 
 
 @njit(cache=True)

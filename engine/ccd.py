@@ -28,6 +28,7 @@ from .fk_nb import chain_fk
 from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx,
                       clamp_angle, other_branch, outside, pick_branch, q_at, v_at, q_put, wrap)
 from .step_nb import YES, Chain, hinge_axis, lm_position, scratch
+from .euler import within
 
 
 KIND_NONE = 0          # no free DOF: never turned
@@ -217,7 +218,7 @@ def _outside_np(a, lo, hi):
     """Degrees by which angles a lie outside [lo, hi] on the circle (0 inside)."""
     d_lo = np.abs((lo - a + 180.0) % 360.0 - 180.0)
     d_hi = np.abs((a - hi + 180.0) % 360.0 - 180.0)
-    return np.where((a >= lo) & (a <= hi), 0.0, np.minimum(d_lo, d_hi))
+    return np.where(within(a, lo, hi), 0.0, np.minimum(d_lo, d_hi))
 
 
 @njit(cache=True)

@@ -214,7 +214,7 @@ from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, NO_FACE, ORIENT_TOL, \
 from .ccd import ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, frames_fk
 from .step_nb import Chain, Scratch, scratch, with_limits
-from .quat_nb import q_at, q_put, v_at, clamp_angle, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
+from .quat_nb import q_at, q_put, v_at, clamp_angle, from_euler_zyx, into_range, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
@@ -285,7 +285,7 @@ def _start_limits(lo, hi, euler, out_lo, out_hi):
     take in the long way round."""
     for k in range(lo.shape[0]):
         for c in range(3):
-            a = euler[k, c]
+            a = into_range(euler[k, c], lo[k, c], hi[k, c])
             if a > hi[k, c]:
                 d = (lo[k, c] - a) % (2.0 * math.pi)       # below lo going down
                 if d < a - hi[k, c]:

@@ -36,9 +36,15 @@ def other_branch(euler: np.ndarray) -> np.ndarray:
     return wrap(np.stack([e[..., 0] + 180.0, 180.0 - e[..., 1], e[..., 2] + 180.0], -1))
 
 
+def within(e: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Whether angles ``e`` (degrees) lie in [lo, hi], or a whole turn away from it."""
+    return ((e >= lo) & (e <= hi)) | ((e - 360.0 >= lo) & (e - 360.0 <= hi)) | ((e + 360.0 >= lo) & (e + 360.0 <= hi))
+
+
 def _outside(e: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Degrees by which angles lie outside [lo, hi] on the circle, summed over channels."""
-    inside = (e >= lo) & (e <= hi)
+    """Degrees by which angles lie outside [lo, hi] on the circle, summed over channels
+    (a range may run past +-180: an angle a whole turn away inside it is inside)."""
+    inside = within(e, lo, hi)
     gap = np.minimum(np.abs(wrap(lo - e)), np.abs(wrap(e - hi)))
     return np.where(inside, 0.0, gap).sum(-1)
 

@@ -149,12 +149,25 @@ def wrap(a):
 
 
 @njit(cache=True)
-def clamp_angle(a, lo, hi):
-    """Clamp an angle to [lo, hi] going to the bound that is nearer on the circle
-    (a turn just past +180 must not jump to the far lower limit)."""
+def into_range(a, lo, hi):
+    """``a`` turned by a whole turn into [lo, hi] where that fits (a range may run
+    past +-180, e.g. [-225, 90] deg: a crossed arm's frontal-plane angle wraps
+    there), else ``a`` wrapped into (-pi, pi]."""
     if lo <= a <= hi:
         return a
     a = wrap(a)
+    if a > hi and lo <= a - 2.0 * math.pi:
+        return a - 2.0 * math.pi
+    if a < lo and a + 2.0 * math.pi <= hi:
+        return a + 2.0 * math.pi
+    return a
+
+
+@njit(cache=True)
+def clamp_angle(a, lo, hi):
+    """Clamp an angle to [lo, hi] going to the bound that is nearer on the circle
+    (a turn just past +180 must not jump to the far lower limit)."""
+    a = into_range(a, lo, hi)
     if lo <= a <= hi:
         return a
     if abs(wrap(lo - a)) < abs(wrap(a - hi)):
@@ -171,6 +184,7 @@ def other_branch(e):
 @njit(cache=True)
 def outside(a, lo, hi):
     """How far (rad) angle a lies outside [lo, hi] on the circle (0 inside)."""
+    a = into_range(a, lo, hi)
     if lo <= a <= hi:
         return 0.0
     return min(abs(wrap(lo - a)), abs(wrap(a - hi)))

@@ -23,11 +23,14 @@ Anatomical ranges (DESIGN.md: a shot that needs more is re-keyed, the limit is n
   y = -90 and on up to z = +90, y = 0, so y stays within [-90, 60]: the second ZYX
   branch (y past -90, with the twist turned by 180) never fits the box, and the box
   means one rotation only. Across the front the frontal-plane angle wraps at +-180
-  where the crossed arm reaches shoulder height (horizontal flexion 135, AAOS, is
-  z = +-180, y = -45), which a box cannot hold on both sides: z runs down to -180 (the
-  crossed arm below shoulder height, as in the stance and the drives), and the
-  authoring check (tools/shots_check.shoulder_problems) measures horizontal flexion
-  135 / extension 45 on the bone's direction instead.
+  where the crossed arm passes shoulder height (horizontal flexion 135, AAOS, is
+  z = +-180, y = -45), and the bottom arm at the hit sits there (z 150-180 on the
+  right): a bound at the wrap walls the solvers in. So z runs past it, down to -225
+  (the limits' ranges may pass +-180: engine.quat_nb.into_range), the crossed arm up
+  to 45 deg above shoulder height, as in front of the face with the arm forward. The
+  box cannot tell that from an arm crossing behind the head, nor bound horizontal
+  flexion by 135 on its own; the authoring checks measure those on the bone's
+  direction and the trunk (tools/shots_check.shoulder_problems, trunk_problems).
 Not yet anatomical (issue 14, see the shots' report):
 - Hand y, the wrist's radial/ulnar deviation (AAOS 20 / 30), holds [-75, 55]. Measured:
   -y turns the left hand toward +Z, the thumb (the T-pose's palm-down hand, and the
@@ -75,7 +78,7 @@ def side(prefix, s):
     L = prefix
     return [
         joint(f"{L}Shoulder", "Spine2", [3.0 * s, 12.0, 0.0], "zy", lim([-25, 35], [-30, 30], None)),
-        joint(f"{L}Arm", f"{L}Shoulder", [15.0 * s, 0.0, 0.0], "zyx", lim([-180, 90], [-90, 60], [-90, 90])),
+        joint(f"{L}Arm", f"{L}Shoulder", [15.0 * s, 0.0, 0.0], "zyx", lim([-225, 90], [-90, 60], [-90, 90])),
         joint(f"{L}ArmRoll", f"{L}Arm", [14.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 90])),
         joint(f"{L}ForeArm", f"{L}ArmRoll", [14.0 * s, 0.0, 0.0], "y", lim(None, [-150, 0], None)),
         joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 85])),

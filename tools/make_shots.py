@@ -127,6 +127,8 @@ def report(rig, name, clip, hit):
         print("  LIMIT", v)
     for v in chk.shoulder_problems(rig, g_rot, g_pos):
         print("  SHOULDER", v)
+    for v in chk.trunk_problems(rig, g_pos):
+        print("  TRUNK", v)
     shot = Shot(name, f"{name}.bvh", hit, "", rig.skeleton, clip, rig.bat_joint)
     m = chk.hit_measures(rig, shot)
     print(f"  hit: {m['contact']} (face_to_ball {m['face_to_ball']:.2f}), azimuth {m['azimuth_deg']:.1f}, "

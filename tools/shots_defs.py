@@ -303,7 +303,7 @@ def on_drive():
         pivot=(25, 125, 175),
         follow=[(0.20, bat(grip=(18, 122, 200), d=(0.3, 0.3, 0.9))),
                 (0.42, bat(grip=(20, 148, 172), d=(0.5, 0.7, -0.5))),
-                (0.52, bat(grip=(12, 136, 174), d=(0.7, 0.45, -0.55))),
+                (0.52, bat(grip=(12, 138, 174), d=(0.65, 0.5, -0.55))),
                 (0.58, bat(grip=(10, 128, 168), d=(0.77, 0.34, -0.55))),
                 (0.72, bat(grip=(4, 104, 152), d=(0.05, -0.5, -0.85)))],
         hit_body=body(hips=(28, 74, 156), hips_ypr=(-70, 16, -4), chest=(-58, 30, -8)),
@@ -374,12 +374,12 @@ def pull():
     # the body, face closing toward mid-wicket
     bats = [(-0.80, dict(STANCE_BAT)),
             (-0.58, bat(grip=(20, 110, 106), d=(-0.05, -0.4, -0.91))),
-            (-0.36, bat(grip=(28, 128, 80), d=(-0.45, 0.6, -0.65))),          # high backlift
+            (-0.36, bat(grip=(28, 128, 80), d=(-0.45, 0.65, -0.6))),          # high backlift
             (-0.20, bat(grip=(31, 136, 84), d=(-0.65, 0.4, -0.65)))]
     bats += swing(hit, d=(-0.78, 0.03, 0.62), n=(0.6, -0.2, 0.77), v=(0.55, 0, 0.85), peak=10.0,
                   pivot=(20, 140, 110))
     bats += [(0.27, bat(grip=(30, 120, 120), d=(0.5, 0.25, 0.85))),
-             (0.40, bat(grip=(32, 128, 116), d=(0.55, 0.6, 0.0))),
+             (0.40, bat(grip=(30, 128, 120), d=(0.55, 0.6, 0.0))),
              (0.50, bat(grip=(38, 130, 100), d=(0.5, 0.5, -0.7)))]
     looks = [(-0.55, BOWLER), (-0.30, (0, 160, 600)), (0.0, hit + V(0, 0, 10)), (0.30, (400, 80, 300)),
              (0.95, BOWLER)]
@@ -403,7 +403,7 @@ def leg_glance():
     looks = [(-0.55, BOWLER), (-0.30, (20, 90, 600)), (0.0, hit + V(0, 0, 10)), (0.35, (150, 40, 400)),
              (0.95, BOWLER)]
     keys = back_foot(t_frames(29), 1.22, (17, 1, 88), -95.0, (20, 1, 128), -76.0, bats,
-                     body(hips=(28, 83, 106), hips_ypr=(-86, 12, 0), chest=(-80, 24, 6)),
+                     body(hips=(28, 83, 106), hips_ypr=(-86, 12, 0), chest=(-80, 28, 6)),
                      body(hips=(28, 83, 107), hips_ypr=(-84, 12, 0), chest=(-76, 22, 6)), looks)
     return keys, "Leg glance: back foot, ball off the hip turned fine with a closing face and soft wrists."
 

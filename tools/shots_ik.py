@@ -13,6 +13,8 @@ import numpy as np
 from engine import quat
 from engine.skeleton import forward_kinematics
 
+from .shots_check import _outside
+
 
 # ----------------------------------------------------------------- small maths
 def unit(v: np.ndarray) -> np.ndarray:
@@ -193,6 +195,8 @@ class PoseSolver:
         psi = np.radians(np.arange(0, 360, 10.0))
         F = g_pos.shape[0]
         costs = np.zeros((F, len(self.ROLLS)))
+        # the elbows keep out of the trunk, but not at the hit, where the face is keyed
+        trunk = self._trunk(g_pos), np.isfinite(T["roll_weight"])[:, None]
         for k, r in enumerate(self.ROLLS):
             lw, lr, rw, rr = self.hand_targets(T["grip"], T["bat_rot"] @ rot_axis(2, np.full(F, r)))
             for pre, w, hr, s, pr in (("Left", lw, lr, 1.0, pref), ("Right", rw, rr, -1.0, 0 * pref)):
@@ -200,7 +204,7 @@ class PoseSolver:
                 l2 = self.bone(pre + "ForeArmRoll") + self.bone(pre + "Hand")
                 ang = self._arm_angles(g_pos[:, self.ix[pre + "Arm"]], w, hr,
                                        g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
-                costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None]).min(1)
+                costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None], trunk).min(1)
         w = T["roll_weight"]
         near = ~np.isfinite(w)
         costs += np.where(near, 200.0, w)[:, None] * (self.ROLLS / 20.0) ** 2
@@ -259,7 +263,7 @@ class PoseSolver:
         parent = g_rot[:, ix[pre + "Shoulder"]]
         psi = np.radians(np.arange(0, 360, 5.0))
         ang = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[None, :])
-        cost = self._arm_cost(ang, pre, s, pref[:, None])
+        cost = self._arm_cost(ang, pre, s, pref[:, None], (self._trunk(g_pos), 1.0))
         choice = viterbi(cost, psi, weight=15.0)
         best = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[choice][:, None])
         e, flex, h = (best[k][:, 0] for k in ("upper", "flex", "hand"))
@@ -297,14 +301,26 @@ class PoseSolver:
         hh = euler(rel(forearm, hand_rot[:, None]), "XZY")          # Rx(twist) Rz(a) Ry(b)
         return {"upper": e, "flex": flex, "hand": hh, "elbow": E}
 
-    def _arm_cost(self, ang, pre, s, pref):
+    TRUNK = ("Hips", "Spine", "Spine1", "Spine2", "Neck")
+
+    def _trunk(self, g_pos):
+        """The spine's polyline ``(F, 5, 3)``, hips to neck: the elbows keep out of the trunk round it."""
+        return g_pos[:, [self.ix[n] for n in self.TRUNK]]
+
+    def _arm_cost(self, ang, pre, s, pref, trunk=None):
         lim = self.rig.limits
         ix = self.ix
         e, h = ang["upper"], ang["hand"]
-        over = lambda v, j, c: np.maximum(0, lim[j, c, 0] - v) + np.maximum(0, v - lim[j, c, 1])
+        over = lambda v, j, c: _outside(v, lim[j, c, 0], lim[j, c, 1])
         viol = (over(e[..., 0], ix[pre + "Arm"], 0) + over(e[..., 1], ix[pre + "Arm"], 1)
                 + over(e[..., 2] / 2, ix[pre + "Arm"], 2) + over(h[..., 0], ix[pre + "ForeArmRoll"], 2)
                 + over(h[..., 1], ix[pre + "Hand"], 0) + over(h[..., 2], ix[pre + "Hand"], 1))
+        if trunk is not None:
+            # an elbow closer to the spine than TRUNK_CM touches the chest or belly;
+            # trunk = (spine polyline (F, 5, 3), weight (F, 1) or scalar)
+            from .shots_check import TRUNK_CM, distance_to_polyline
+            spine, weight = trunk
+            viol = viol + weight * np.maximum(0.0, TRUNK_CM - distance_to_polyline(ang["elbow"], spine[:, None]))
         # elbows hang: prefer the elbow below the shoulder-wrist line
         return ((h[..., 1] / 35.0) ** 2 + ((s * h[..., 2] + pref) / 20.0) ** 2
                 + (h[..., 0] / 60.0) ** 2 + (e[..., 2] / 80.0) ** 2 + 50.0 * viol ** 2)

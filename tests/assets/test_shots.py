@@ -12,6 +12,7 @@ import pytest
 from engine import quat
 from engine.library import load_library
 from engine.rig import assets_dir
+from tools.shots_check import _outside
 
 FPS = 30.0
 FRONT_FOOT = ("forward_defence", "straight_drive", "cover_drive", "on_drive")
@@ -32,7 +33,7 @@ def dof_euler(rig, local_rotations):
     lim = np.where(rig.dof[..., None], rig.limits, 0.0)
 
     def outside(e):
-        return (np.maximum(0, lim[..., 0] - e) + np.maximum(0, e - lim[..., 1])).sum(-1)
+        return _outside(e, lim[..., 0], lim[..., 1]).sum(-1)
     return np.where((outside(e2) < outside(e1))[..., None], e2, e1)
 
 
@@ -69,7 +70,7 @@ def test_joints_inside_limits_and_dofs(shots, rig):
     for s in shots.values():
         e = dof_euler(rig, s.clip.local_rotations)[:, 1:]       # root is free
         lim = np.where(rig.dof[1:, :, None], rig.limits[1:], 0.0)
-        over = np.maximum(0, lim[..., 0] - e) + np.maximum(0, e - lim[..., 1])
+        over = _outside(e, lim[..., 0], lim[..., 1])
         f, j, a = np.unravel_index(np.argmax(over), over.shape)
         assert over.max() < 0.5, (f"{s.name}: {rig.skeleton.names[j + 1]} axis {'zyx'[a]} = "
                                   f"{e[f, j, a]:.2f} at frame {f}")
@@ -271,3 +272,20 @@ def test_the_authoring_check_finds_a_back_of_the_bat_hit():
     found = " ".join(hit_problems("square_cut", m))
     assert "back" in found and "azimuth" in found and "peaks +11" in found
     assert hit_problems("forward_defence", dict(m, contact="face", face_to_ball=0.9, azimuth_deg=0.0)) != []
+
+
+def test_elbows_stay_out_of_the_trunk(shots, rig):
+    from tools.shots_check import trunk_problems
+    for s in shots.values():
+        assert trunk_problems(rig, s.fk[1]) == [], s.name
+
+
+def test_the_trunk_check_finds_an_arm_through_the_chest(shots, rig):
+    """The check can fail: the right elbow moved onto the spine is found."""
+    from tools.shots_check import trunk_problems
+    s = shots["straight_drive"]
+    g_pos = s.fk[1].copy()
+    sk = rig.skeleton
+    g_pos[5, sk.index("RightForeArm")] = (g_pos[5, sk.index("Spine1")] + g_pos[5, sk.index("Spine2")]) / 2
+    found = trunk_problems(rig, g_pos)
+    assert len(found) == 1 and found[0].startswith("Right elbow") and "frame 5" in found[0]
