@@ -26,7 +26,7 @@ from numba import njit
 
 from .fk_nb import chain_fk
 from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx,
-                      clamp_angle, other_branch, outside, pick_branch, q_at, v_at, q_put, wrap)
+                      clamp_angle, into_range, other_branch, outside, pick_branch, q_at, v_at, q_put, wrap)
 from .step_nb import YES, Chain, hinge_axis, lm_position, scratch
 from .euler import within
 
@@ -253,9 +253,10 @@ def _limit_euler_nb(local, lo, hi, out):
                 s1 += outside(e1[c], lo[j, c], hi[j, c])
                 s2 += outside(e2[c], lo[j, c], hi[j, c])
             e = _gimbal_split(e2 if s2 < s1 - 1e-11 else e1, lo[j], hi[j])
-            out[i, j, 0] = e[0]
-            out[i, j, 1] = e[1]
-            out[i, j, 2] = e[2]
+            # in the limits' own window (a range past +-180 reads 190, not -170): the
+            # solvers step and clamp from these numbers
+            for c in range(3):
+                out[i, j, c] = into_range(e[c], lo[j, c], hi[j, c])
 
 
 def limit_euler(local_rotations, limits) -> np.ndarray:

@@ -317,7 +317,7 @@ def _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi):
     limits), its locked ones this frame's."""
     for k in range(loc_r.shape[0]):
         for c in range(3):
-            eul_r[k, c] = min(max(prev_er[k, c], lo[k, c]), hi[k, c]) if free[k, c] else src_r[k, c]
+            eul_r[k, c] = clamp_angle(prev_er[k, c], lo[k, c], hi[k, c]) if free[k, c] else src_r[k, c]
         q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
 
 @njit(cache=True)

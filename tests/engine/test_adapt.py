@@ -333,3 +333,18 @@ def test_cli_bench_json():
         assert res[key]["median"] > 0 and res[key]["p95"] >= res[key]["median"]
     if res.get("ikpy_left_arm_ms"):
         assert res["ikpy_over_ours"] > 0
+
+
+@pytest.mark.parametrize("solver", ["ccd", "dls"])
+def test_the_trail_hand_keeps_its_grip_where_the_arm_crosses_the_wrap(rig, library, adapters, solver):
+    """The forward defence's right arm crosses the chest past the ZYX wrap (Arm z near
+    180, inside its range [-90, 225]) around the hit: both solvers keep the right hand
+    on its grip (before the solvers read its angles in the range's own window, DLS
+    left it 3-20 cm off)."""
+    shot = next(s for s in library if s.name == "forward_defence")
+    j = rig.skeleton.index("RightArm")
+    z = ccd.limit_euler(shot.clip.local_rotations[:, j:j + 1], rig.limits[j:j + 1])[:, 0, 0]
+    assert np.any(z > 180.0)                      # read in the range's window, past +180
+    for d in ([0.0, 15.0, 0.0], [0.0, 0.0, 15.0], [-15.0, 0.0, 0.0]):
+        a = adapters[shot.name].adapt(shot.hit_point + np.array(d), AdaptSettings(solver=solver))
+        assert a.grip_error_cm.max() < 0.05, (d, a.grip_error_cm.max())
