@@ -27,7 +27,7 @@ from engine.rig import assets_dir, default_rig
 from engine.skeleton import Clip, clip_fk
 
 from . import shots_check as chk
-from .shots_defs import SHOTS
+from .shots_defs import REST, SHOTS, STANCE
 from .shots_ik import PoseSolver, fit_torso, shoulder_positions
 from .shots_keys import FPS, targets, tracks
 
@@ -73,6 +73,25 @@ def unfold(solver, T, times, d_min: float = 27.0, d_max: float = 48.0) -> np.nda
     return 0.8 * smooth * (1.0 - np.exp(-0.5 * (times / 0.1) ** 2))[:, None] * envelope(len(times), 6)[:, None]
 
 
+def shared_reach(solver, d_min: float = 27.0, d_max: float = 48.0) -> None:
+    """Raise unless the shared stance and rest keys hold both wrists between
+    ``d_min`` and ``d_max`` of their shoulders: ``unfold`` and ``fit_torso`` fade
+    out at the first and last frames (they are the shared keys exactly), so a
+    key out of that reach is corrected on every frame but its own and the
+    bat jumps between them (the stance's left wrist at 53.5 cm of 54 lifted
+    the bat 26 cm over frames 0-3 of every shot)."""
+    for pose_name, pose in (("STANCE", STANCE), ("REST", REST)):
+        tr = tracks([(0.0, dict(pose)), (1.0, dict(pose))], np.zeros(1), solver)
+        T = targets(tr)
+        sh = shoulder_positions(solver, T["hips_pos"], T["hips_rot"], T["chest_rot"])[0]
+        l_wrist, _, r_wrist, _ = solver.hand_targets(T["grip"], T["bat_rot"])
+        for side, w, s in (("left", l_wrist[0], sh[0]), ("right", r_wrist[0], sh[1])):
+            dist = float(np.linalg.norm(w - s))
+            if not d_min <= dist <= d_max:
+                raise ValueError(f"{pose_name}: {side} wrist {dist:.1f} cm from its shoulder, "
+                                 f"outside [{d_min}, {d_max}]")
+
+
 def build(name: str, rig=None, noise: bool = True):
     """(skeleton, clip, hit_frame, description, info) for one shot."""
     rig = rig or default_rig()
@@ -81,6 +100,7 @@ def build(name: str, rig=None, noise: bool = True):
     n_pre, n_post = int(round(-t0 * FPS)), int(round(t1 * FPS))
     times = np.arange(-n_pre, n_post + 1) / FPS
     solver = PoseSolver(rig)
+    shared_reach(solver)
     tr = tracks(keys, times, solver)
     if noise:
         rng = np.random.default_rng([SEED, sorted(SHOTS).index(name)])

@@ -50,11 +50,13 @@ STANCE_FEET = {"l_toe": V(21, 1, 138), "l_yaw": -75.0, "l_heel": 0.0,
 BOWLER = V(0, 210, 1900)          # where a batsman watches the ball come from
 
 STANCE = {
-    # knees slightly bent, hips and shoulders side-on, CoM over the balls of the feet
-    "hips_pos": V(27, 83, 117), "hips_ypr": V(-90, 12, 0), "chest_ypr": V(-88, 16, 18),
+    # knees slightly bent, hips and shoulders side-on, CoM over the balls of the feet;
+    # crouched enough (chest pitch 24) that the hanging arms are not locked: both
+    # wrists 47 cm from their shoulders, inside make_shots.unfold's 48 of 54 cm
+    "hips_pos": V(27, 80, 117), "hips_ypr": V(-90, 12, 0), "chest_ypr": V(-88, 24, 12),
     "look": BOWLER, "head_tilt": 0.0,
     # bat grounded just in front of the back foot's toes, hands at the front thigh
-    "toe": V(-7, 1.5, 102), "bat_d": bat_d(-4, -80, -8), "bat_n": V(-0.3, 0, 1),
+    "toe": V(-3, 1.5, 106), "bat_d": bat_d(-4, -80, -8), "bat_n": V(-0.3, 0, 1),
     "wrist_pref": 50.0,
     **STANCE_FEET,
 }
@@ -63,7 +65,7 @@ REST = {
     # relaxed and taller, shoulders a little open, bat held just off the ground
     "hips_pos": V(28, 86, 117), "hips_ypr": V(-86, 8, 0), "chest_ypr": V(-84, 12, 14),
     "look": BOWLER, "head_tilt": 0.0,
-    "grip": V(-2, 92, 112), "bat_d": bat_d(-0.15, -1, -0.1), "bat_n": V(-0.3, 0, 1),
+    "grip": V(-2, 94, 112), "bat_d": bat_d(-0.15, -1, -0.1), "bat_n": V(-0.3, 0, 1),
     "wrist_pref": 30.0,
     **STANCE_FEET,
 }
@@ -373,9 +375,11 @@ def pull():
     # body square to the bowler, the bat horizontal at chest height swung round
     # the body, face closing toward mid-wicket
     bats = [(-0.80, dict(STANCE_BAT)),
-            (-0.58, bat(grip=(20, 110, 106), d=(-0.05, -0.4, -0.91))),
+            # re-keyed with the crouched stance (was (20, 110, 106) and (31, 136, 84)):
+            # the right forearm and wrist stay inside their limits
+            (-0.58, bat(grip=(20, 110, 102), d=(-0.05, -0.4, -0.91))),
             (-0.36, bat(grip=(28, 128, 80), d=(-0.45, 0.65, -0.6))),          # high backlift
-            (-0.20, bat(grip=(31, 136, 84), d=(-0.65, 0.4, -0.65)))]
+            (-0.20, bat(grip=(30, 136, 84), d=(-0.65, 0.4, -0.65)))]
     bats += swing(hit, d=(-0.78, 0.03, 0.62), n=(0.6, -0.2, 0.77), v=(0.55, 0, 0.85), peak=10.0,
                   pivot=(20, 140, 110))
     bats += [(0.27, bat(grip=(30, 120, 120), d=(0.5, 0.25, 0.85))),
