@@ -27,7 +27,7 @@ from .fk_nb import chain_fk, tree_fk
 from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations, relative_pose
-from .step_nb import Chain, hinge_axis, scratch
+from .step_nb import MAX_STEP, Chain, hinge_axis, scratch
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
@@ -38,6 +38,8 @@ FACE_TOL = math.radians(0.05)  # the face is "there" (chord of the unit normals 
 FACE_ITER = 30          # Newton steps at most (crawling along a limit: as near as it gets)
 FACES = ("keep", "free")
 NO_FACE = (0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # both_arms_solve's face term, off
+BAT_WEIGHT = 10.0       # the two-arm solve: the bat on the ball matters most
+END_ROWS = np.int64(6)  # rows of the grip and face solves (an int64, not a literal: one compiled step)
 SOLVERS = ("ccd", "dls")
 TWISTS = ("follow", "lead")
 TWIST_COLUMN = 2        # ZYX Euler columns z, y, x: x is the twist about the bone in the arms
@@ -176,31 +178,36 @@ def _grip_residual(eff, last, target_pos, target_rot, length, r):
 
 
 @njit(cache=True)
-def lsq6_apply(cols, dofs, m, r, euler, lo, hi, damping, max_step, A, x):
-    """Damped least squares on 6 rows for the m columns ``cols (m, 7)`` of the
-    Euler angles ``dofs (m, 2)`` (joint, column), applied to ``euler`` in place:
-    ``d = W J^T (J W J^T + damping^2 I)^-1 r`` with the Jacobian's columns already
-    scaled by sqrt(W) and sqrt(W) in ``cols[:, 6]`` (per-joint stiffness 1/W); the
-    largest change capped at ``max_step``, a column that would cross its limit
-    clamped there and frozen and the rest re-solved (up to three rounds)."""
+def lsq_apply(cols, dofs, m, R, r, euler, lo, hi, damping, max_step, A, x):
+    """Damped least squares on the first R rows of the m columns ``cols (m, >R)`` of the
+    Euler angles ``dofs (m, 2)`` (row of ``euler``, column), applied to ``euler`` in place:
+    ``d = W J^T (J W J^T + damping^2 I)^-1 r`` with the Jacobian's columns already scaled
+    by sqrt(W) and sqrt(W) in the last column of ``cols`` (per-joint stiffness 1/W); the
+    largest change capped at ``max_step``, a column that would cross its limit clamped
+    there and frozen and the rest re-solved (up to three rounds). The one step of the
+    grip, face and two-arm solves (engine.step_nb.jacobian_step is its 3-row twin, kept
+    in registers for the position solves)."""
+    wc = cols.shape[1] - 1
     for _round in range(3):
-        for i in range(6):
-            for j in range(6):
+        for i in range(R):
+            for j in range(R):
                 A[i, j] = damping * damping if i == j else 0.0
         for q in range(m):
             if dofs[q, 0] < 0:
                 continue
-            for i in range(6):
-                for j in range(6):
-                    A[i, j] += cols[q, i] * cols[q, j]
-        _solve_spd(A, r, x, 6)
+            for i in range(R):
+                ci = cols[q, i]
+                if ci != 0.0:
+                    for j in range(R):
+                        A[i, j] += ci * cols[q, j]
+        _solve_spd(A, r, x, R)
         biggest = 0.0
         for q in range(m):
             if dofs[q, 0] >= 0:
                 d = 0.0
-                for i in range(6):
+                for i in range(R):
                     d += cols[q, i] * x[i]
-                biggest = max(biggest, abs(d * cols[q, 6]))
+                biggest = max(biggest, abs(d * cols[q, wc]))
         scale = 1.0 if biggest <= max_step else max_step / biggest
         clamped = False
         for q in range(m):
@@ -209,14 +216,14 @@ def lsq6_apply(cols, dofs, m, r, euler, lo, hi, damping, max_step, A, x):
             k = dofs[q, 0]
             c = dofs[q, 1]
             d = 0.0
-            for i in range(6):
+            for i in range(R):
                 d += cols[q, i] * x[i]
-            want = euler[k, c] + d * cols[q, 6] * scale
+            want = euler[k, c] + d * cols[q, wc] * scale
             got = clamp_angle(want, lo[k, c], hi[k, c])
             if got != want:
-                gd = (got - euler[k, c]) / cols[q, 6]
+                gd = (got - euler[k, c]) / cols[q, wc]
                 euler[k, c] = got
-                for i in range(6):
+                for i in range(R):
                     r[i] -= cols[q, i] * gd
                 dofs[q, 0] = -1
                 clamped = True
@@ -225,10 +232,34 @@ def lsq6_apply(cols, dofs, m, r, euler, lo, hi, damping, max_step, A, x):
                 if dofs[q, 0] < 0:
                     continue
                 d = 0.0
-                for i in range(6):
+                for i in range(R):
                     d += cols[q, i] * x[i]
-                euler[dofs[q, 0], dofs[q, 1]] += d * cols[q, 6] * scale
+                euler[dofs[q, 0], dofs[q, 1]] += d * cols[q, wc] * scale
             break
+
+
+@njit(cache=True)
+def put_free_locals(local, euler, free):
+    """The local rotations of the joints with a free column from their Euler angles."""
+    for k in range(local.shape[0]):
+        if free[k, 0] or free[k, 1] or free[k, 2]:
+            q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+
+
+@njit(cache=True)
+def gather_chain(pose, joints, out):
+    """The chain joints' rows of one pose ``pose (J, w)`` into ``out (n, w)``."""
+    for k in range(joints.shape[0]):
+        for c in range(out.shape[1]):
+            out[k, c] = pose[joints[k], c]
+
+
+@njit(cache=True)
+def scatter_chain(rows, joints, pose):
+    """The chain joints' rows ``rows (n, w)`` into one pose ``pose (J, w)``."""
+    for k in range(joints.shape[0]):
+        for c in range(rows.shape[1]):
+            pose[joints[k], c] = rows[k, c]
 
 
 @njit(cache=True)
@@ -304,10 +335,8 @@ def _end_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi,
         bak_l[:n] = local
         bak_e[:n] = euler
         m = _end_columns(prot, g_rot, g_pos, euler, free, weight, eff, goal, cols, dofs)
-        lsq6_apply(cols, dofs, m, r, euler, lo, hi, lam, 0.25, A, x)
-        for k in range(n):
-            if free[k, 0] or free[k, 1] or free[k, 2]:
-                q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
+        lsq_apply(cols, dofs, m, END_ROWS, r, euler, lo, hi, lam, MAX_STEP, A, x)
+        put_free_locals(local, euler, free)
         eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
         res2, pe2, oe2 = _end_residual(goal, eff2, q_at(g_rot, n - 1), r)
         if not res2 < res:
@@ -330,15 +359,16 @@ def _end_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi,
 
 @njit(cache=True)
 def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_pos, target_rot,
-               tol, ori_tol, max_iter, g_rot, g_pos, cols6, dofs, A, x, r, bak_l, bak_e):
+               tol, ori_tol, max_iter, work):
     """Damped Newton on position and orientation of the chain's last joint
     from the current pose (after the position solve and the twist/hand finish
-    could not get the orientation). Returns (position error, angle error)."""
+    could not get the orientation); work as :func:`_end_solve`'s. Returns
+    (position error, angle error)."""
     goal = (False, (target_pos[0], target_pos[1], target_pos[2]),
             (target_rot[0], target_rot[1], target_rot[2], target_rot[3]), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
             GRIP_LENGTH)
     return _end_solve(prot, ppos, offsets, eff_off, local, euler, free, np.ones(offsets.shape[0]), lo, hi,
-                      goal, tol, ori_tol, max_iter, 1e-3, (g_rot, g_pos, cols6, dofs, A, x, r, bak_l, bak_e))
+                      goal, tol, ori_tol, max_iter, 1e-3, work)
 
 
 @njit(cache=True)
@@ -381,22 +411,41 @@ def _solve_spd(A, r, x, R):
 
 
 @njit(cache=True)
-def _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff, loc_r,
-                   gr_rot, gr_pos, handle, face, rel_p, rel_q, bat_w, length, r):
-    """FK of both arms and the 12-residual (bat, grip position, grip rotation, bat face:
-    ``face`` = (weight, target normal, normal in the left hand's frame), weight 0: no face);
-    returns (grip target position, its norm)."""
+def grip_target(g_lh, p_lh, rel_p, rel_q):
+    """The right hand's grip (position, rotation) carried by the left hand's global
+    rotation ``g_lh`` and position ``p_lh``: engine.skeleton.carried_pose, compiled."""
+    return vadd(p_lh, qrot(g_lh, rel_p)), qmul(g_lh, rel_q)
+
+
+@njit(cache=True)
+def both_fk(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q):
+    """FK of both arm chains into ``bufs`` = (left g_rot, g_pos, right g_rot, g_pos);
+    arms = (left offsets, left effector offset, right offsets, right effector offset, rp:
+    the left chain's joint the right arm hangs from). Returns (bat, right hand, the left
+    hand's rotation, the grip's target position, its rotation)."""
+    l_off, l_eoff, r_off, r_eoff, rp = arms
+    gl_rot, gl_pos, gr_rot, gr_pos = bufs
     nl = l_off.shape[0]
-    nr = r_off.shape[0]
     bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
     rh = chain_fk(q_at(gl_rot, rp), v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
     g_lh = q_at(gl_rot, nl - 1)
-    t_pos = vadd(v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
-    t_rot = qmul(g_lh, rel_q)
+    t_pos, t_rot = grip_target(g_lh, v_at(gl_pos, nl - 1), rel_p, rel_q)
+    return bat, rh, g_lh, t_pos, t_rot
+
+
+@njit(cache=True)
+def _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r):
+    """FK of both arms (:func:`both_fk`) and the 12-residual (bat, grip position, grip
+    rotation, bat face) into r against goal = (handle, face, rel_p, rel_q), ``face`` =
+    (weight, target normal, normal in the left hand's frame), weight 0: no face;
+    returns (bat, grip target position, the residual's norm)."""
+    handle, face, rel_p, rel_q = goal
+    nr = loc_r.shape[0]
+    bat, rh, g_lh, t_pos, t_rot = both_fk(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q)
     for i in range(3):
-        r[i] = bat_w * (handle[i] - bat[i])
+        r[i] = BAT_WEIGHT * (handle[i] - bat[i])
     tmp = np.empty(6)
-    _grip_residual(rh, q_at(gr_rot, nr - 1), t_pos, t_rot, length, tmp)
+    _grip_residual(rh, q_at(bufs[2], nr - 1), t_pos, t_rot, GRIP_LENGTH, tmp)
     for i in range(6):
         r[3 + i] = tmp[i]
     fw, n_tgt, n_last = face
@@ -406,183 +455,132 @@ def _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, 
     t = 0.0
     for i in range(12):
         t += r[i] * r[i]
-    return t_pos, math.sqrt(t)
+    return bat, t_pos, math.sqrt(t)
 
 
 @njit(cache=True)
-def both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                    r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, face, rel_p, rel_q,
-                    tol, ori_tol, max_iter):
+def _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols, dofs):
+    """Jacobian columns of both arms' free Euler angles against :func:`_both_residual`'s
+    rows (``dofs``: rows of the two arms' angles, left first); returns how many."""
+    l_free, r_free = free
+    gl_rot, gl_pos, gr_rot, gr_pos = bufs
+    nl = eul_l.shape[0]
+    nr = eul_r.shape[0]
+    L = GRIP_LENGTH
+    rh = v_at(gr_pos, nr - 1)
+    rv = (r[6] / L, r[7] / L, r[8] / L)
+    rpos = (r[3], r[4], r[5])
+    nrm = qrot(q_at(gl_rot, nl - 1), face[2])
+    m = 0
+    for k in range(nl):
+        for c in range(3):
+            if not l_free[k, c]:
+                continue
+            a = hinge_axis(prot, gl_rot, eul_l, k, c)
+            pk = v_at(gl_pos, k)
+            cb = cross(a, vsub(bat, pk))
+            if k <= rp:     # turns the right arm and its target together
+                cg = cross(a, rpos)
+                co = cross(a, rv)
+                cg = (-cg[0], -cg[1], -cg[2])
+                co = (-L * co[0], -L * co[1], -L * co[2])
+            else:           # turns the left hand (the target) only
+                cg = cross(a, vsub(t_pos, pk))
+                cg = (-cg[0], -cg[1], -cg[2])
+                co = (-L * a[0], -L * a[1], -L * a[2])
+            cn = cross(a, nrm)
+            for i in range(3):
+                cols[m, i] = BAT_WEIGHT * cb[i]
+                cols[m, 3 + i] = cg[i]
+                cols[m, 6 + i] = co[i]
+                cols[m, 9 + i] = face[0] * cn[i]
+            dofs[m, 0] = k
+            dofs[m, 1] = c
+            m += 1
+    pr = q_at(gl_rot, rp)
+    for k in range(nr):
+        for c in range(3):
+            if not r_free[k, c]:
+                continue
+            a = hinge_axis(pr, gr_rot, eul_r, k, c)
+            cg = cross(a, vsub(rh, v_at(gr_pos, k)))
+            for i in range(3):
+                cols[m, i] = 0.0
+                cols[m, 3 + i] = cg[i]
+                cols[m, 6 + i] = L * a[i]
+            dofs[m, 0] = nl + k
+            dofs[m, 1] = c
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def _both_done(r, R, fw, tol, ori_tol):
+    """Bat, grip position and rotation (and with R = 12 the face) within tolerance."""
+    bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / BAT_WEIGHT
+    pos_e = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
+    ori_e = math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / GRIP_LENGTH
+    face_e = math.sqrt(r[9] * r[9] + r[10] * r[10] + r[11] * r[11]) / max(fw, 1e-300)
+    return bat_e < tol and pos_e < tol and ori_e < ori_tol and (R == 9 or face_e < FACE_TOL)
+
+
+@njit(cache=True)
+def both_arms_solve(prot, ppos, arms, free, pose, limits, goal, tol, ori_tol, max_iter):
     """Damped Newton on both arm chains at once: the bat on its handle AND the
     right hand on its grip (the torso joints shared by both chains can then
-    lean to give the right arm its reach), and, with a face weight (``face``, as
+    lean to give the right arm its reach), and, with a face weight (goal's ``face``, as
     :func:`_both_residual`), the bat face on its target. Used when the right arm
-    alone cannot get back to the grip. Returns the grip's (position cm, angle rad) error."""
-    nl = l_off.shape[0]
-    nr = r_off.shape[0]
-    M = 3 * (nl + nr)
-    gl_rot = np.empty((nl, 4))
-    gl_pos = np.empty((nl, 3))
-    gr_rot = np.empty((nr, 4))
-    gr_pos = np.empty((nr, 3))
+    alone cannot get back to the grip. arms as :func:`both_fk`'s; free = (left (nl,3),
+    right (nr,3)); pose = (left local (nl,4), right local (nr,4), Euler angles of both
+    (nl+nr,3), left first), limits = (lo, hi) of those angles; goal = (handle, face,
+    rel_p, rel_q). Returns the grip's (position cm, angle rad) error."""
+    loc_l, loc_r, eul = pose
+    lo, hi = limits
+    rp = arms[4]
+    face = goal[1]
+    nl = loc_l.shape[0]
+    nr = loc_r.shape[0]
+    eul_l = eul[:nl]
+    eul_r = eul[nl:]
+    bufs = (np.empty((nl, 4)), np.empty((nl, 3)), np.empty((nr, 4)), np.empty((nr, 3)))
     R = 12 if face[0] > 0.0 else 9     # rows solved: the face's three only when it is kept
-    cols = np.zeros((M, 12))
-    dofs = np.empty((M, 3), np.int64)
+    cols = np.zeros((3 * (nl + nr), 13))
+    cols[:, 12] = 1.0                  # no stiffness weights
+    dofs = np.empty((3 * (nl + nr), 2), np.int64)
     A = np.empty((12, 12))
     x = np.empty(12)
     r = np.empty(12)
     bl = np.empty((nl, 4))
-    be = np.empty((nl, 3))
     br = np.empty((nr, 4))
-    bre = np.empty((nr, 3))
-    bat_w = 10.0        # the bat on the ball matters most
-    L = GRIP_LENGTH
-    t_pos, res = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff,
-                                loc_r, gr_rot, gr_pos, handle, face, rel_p, rel_q, bat_w, L, r)
+    be = np.empty((nl + nr, 3))
+    bat, t_pos, res = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
     lam = 0.5
     for _ in range(max_iter):
-        bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / bat_w
-        pos_e = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
-        ori_e = math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / L
-        face_e = math.sqrt(r[9] * r[9] + r[10] * r[10] + r[11] * r[11]) / max(face[0], 1e-300)
-        if bat_e < tol and pos_e < tol and ori_e < ori_tol and (R == 9 or face_e < FACE_TOL):
+        if _both_done(r, R, face[0], tol, ori_tol):
             break
         bl[:] = loc_l
-        be[:] = eul_l
         br[:] = loc_r
-        bre[:] = eul_r
-        bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
-        rh = v_at(gr_pos, nr - 1)
-        rv = (r[6] / L, r[7] / L, r[8] / L)
-        rpos = (r[3], r[4], r[5])
-        nrm = qrot(q_at(gl_rot, nl - 1), face[2])
-        m = 0
-        for k in range(nl):
-            for c in range(3):
-                if not l_free[k, c]:
-                    continue
-                a = hinge_axis(prot, gl_rot, eul_l, k, c)
-                pk = v_at(gl_pos, k)
-                cb = cross(a, vsub(bat, pk))
-                if k <= rp:     # turns the right arm and its target together
-                    cg = cross(a, rpos)
-                    co = cross(a, rv)
-                    cg = (-cg[0], -cg[1], -cg[2])
-                    co = (-L * co[0], -L * co[1], -L * co[2])
-                else:           # turns the left hand (the target) only
-                    cg = cross(a, vsub(t_pos, pk))
-                    cg = (-cg[0], -cg[1], -cg[2])
-                    co = (-L * a[0], -L * a[1], -L * a[2])
-                cn = cross(a, nrm)
-                for i in range(3):
-                    cols[m, i] = bat_w * cb[i]
-                    cols[m, 3 + i] = cg[i]
-                    cols[m, 6 + i] = co[i]
-                    cols[m, 9 + i] = face[0] * cn[i]
-                dofs[m, 0] = 0
-                dofs[m, 1] = k
-                dofs[m, 2] = c
-                m += 1
-        pr = q_at(gl_rot, rp)
-        for k in range(nr):
-            for c in range(3):
-                if not r_free[k, c]:
-                    continue
-                a = hinge_axis(pr, gr_rot, eul_r, k, c)
-                cg = cross(a, vsub(rh, v_at(gr_pos, k)))
-                for i in range(3):
-                    cols[m, i] = 0.0
-                    cols[m, 3 + i] = cg[i]
-                    cols[m, 6 + i] = L * a[i]
-                dofs[m, 0] = 1
-                dofs[m, 1] = k
-                dofs[m, 2] = c
-                m += 1
-        for _round in range(3):
-            for i in range(R):
-                for j in range(R):
-                    A[i, j] = lam * lam if i == j else 0.0
-            for q in range(m):
-                if dofs[q, 0] < 0:
-                    continue
-                for i in range(R):
-                    ci = cols[q, i]
-                    if ci != 0.0:
-                        for j in range(R):
-                            A[i, j] += ci * cols[q, j]
-            _solve_spd(A, r, x, R)
-            biggest = 0.0
-            for q in range(m):
-                if dofs[q, 0] >= 0:
-                    d = 0.0
-                    for i in range(R):
-                        d += cols[q, i] * x[i]
-                    biggest = max(biggest, abs(d))
-            scale = 1.0 if biggest <= 0.25 else 0.25 / biggest
-            clamped = False
-            for q in range(m):
-                if dofs[q, 0] < 0:
-                    continue
-                d = 0.0
-                for i in range(R):
-                    d += cols[q, i] * x[i]
-                k = dofs[q, 1]
-                c = dofs[q, 2]
-                if dofs[q, 0] == 0:
-                    want = eul_l[k, c] + d * scale
-                    got = clamp_angle(want, lo_l[k, c], hi_l[k, c])
-                    if got != want:
-                        gd = got - eul_l[k, c]
-                        eul_l[k, c] = got
-                else:
-                    want = eul_r[k, c] + d * scale
-                    got = clamp_angle(want, lo_r[k, c], hi_r[k, c])
-                    if got != want:
-                        gd = got - eul_r[k, c]
-                        eul_r[k, c] = got
-                if got != want:
-                    for i in range(R):
-                        r[i] -= cols[q, i] * gd
-                    dofs[q, 0] = -1
-                    clamped = True
-            if not clamped:
-                for q in range(m):
-                    if dofs[q, 0] < 0:
-                        continue
-                    d = 0.0
-                    for i in range(R):
-                        d += cols[q, i] * x[i]
-                    if dofs[q, 0] == 0:
-                        eul_l[dofs[q, 1], dofs[q, 2]] += d * scale
-                    else:
-                        eul_r[dofs[q, 1], dofs[q, 2]] += d * scale
-                break
-        for k in range(nl):
-            if l_free[k, 0] or l_free[k, 1] or l_free[k, 2]:
-                q_put(loc_l, k, from_euler_zyx(eul_l[k, 0], eul_l[k, 1], eul_l[k, 2]))
-        for k in range(nr):
-            if r_free[k, 0] or r_free[k, 1] or r_free[k, 2]:
-                q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
-        t_pos2, res2 = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
-                                      r_eoff, loc_r, gr_rot, gr_pos, handle, face, rel_p, rel_q, bat_w, L, r)
+        be[:] = eul
+        m = _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols, dofs)
+        lsq_apply(cols, dofs, m, R, r, eul, lo, hi, lam, MAX_STEP, A, x)
+        put_free_locals(loc_l, eul_l, free[0])
+        put_free_locals(loc_r, eul_r, free[1])
+        bat2, t_pos2, res2 = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
         if not res2 < res:
             loc_l[:] = bl
-            eul_l[:] = be
             loc_r[:] = br
-            eul_r[:] = bre
-            t_pos, res = _both_residual(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off,
-                                        r_eoff, loc_r, gr_rot, gr_pos, handle, face, rel_p, rel_q, bat_w, L, r)
+            eul[:] = be
+            bat, t_pos, res = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
             lam *= 4.0
             if lam > 1e4:
                 break
             continue
         gain = res - res2
-        t_pos = t_pos2
-        res = res2
+        bat, t_pos, res = bat2, t_pos2, res2
         lam = max(0.05, lam * 0.5)
         if gain < 1e-3 * res:
             break
-    return math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5]), math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / L
+    return math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5]), math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / GRIP_LENGTH
 
 
 @njit(cache=True)
@@ -632,18 +630,18 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
     s = scratch(nmax)
     g_rot, g_pos, _, dofs, bak_l, bak_e = s
     loc_l = np.empty((nl, 4))
-    eul_l = np.empty((nl, 3))
     src_l = np.empty((nl, 3))
     cols6 = np.empty((3 * nmax, 7))
     A6 = np.empty((6, 6))
     x6 = np.empty(6)
     r6 = np.empty(6)
-    lo_l = np.empty((nl, 3))
-    hi_l = np.empty((nl, 3))
-    lo_r = np.empty((nr, 3))
-    hi_r = np.empty((nr, 3))
+    eul = np.empty((nl + nr, 3))      # both arms' angles and limits, left first (the two-arm solve's)
+    lo = np.empty((nl + nr, 3))
+    hi = np.empty((nl + nr, 3))
+    eul_l, eul_r = eul[:nl], eul[nl:]
+    lo_l, lo_r = lo[:nl], lo[nl:]
+    hi_l, hi_r = hi[:nl], hi[nl:]
     loc_r = np.empty((nr, 4))
-    eul_r = np.empty((nr, 3))
     src_r = np.empty((nr, 3))
     rh = rj[nr - 1]
     b_h = (src_gpos[hit, bat, 0], src_gpos[hit, bat, 1], src_gpos[hit, bat, 2])
@@ -736,8 +734,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                 eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
                 if vnorm(vsub(eff, t_pos)) >= tol or oe >= ori_tol:
                     pe, oe = grip_solve(prot, ppos, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos,
-                                        t_rot, tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6,
-                                        bak_l, bak_e)
+                                        t_rot, tol, ori_tol, 30, work)
                     if (pe > GRIP_CM or oe > GRIP_RAD) and rp >= 0:
                         # out of the right arm's reach: let the torso help (and the roll
                         # joints, with the face kept)
@@ -748,11 +745,11 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                             pe, oe = both_arms_solve((src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2],
                                                       src_grot[f, pj, 3]),
                                                      (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2]),
-                                                     l_off, l_eoff, loc_l, eul_l, both_free, lo_l, hi_l, rp,
-                                                     r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle,
-                                                     (fw, n_tgt, n_last),
-                                                     (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2]),
-                                                     (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]),
+                                                     (l_off, l_eoff, r_off, r_eoff, rp), (both_free, r_free),
+                                                     (loc_l, loc_r, eul), (lo, hi),
+                                                     (handle, (fw, n_tgt, n_last),
+                                                      (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2]),
+                                                      (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])),
                                                      tol, ori_tol, 40)
                             if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
                                 break
@@ -771,7 +768,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                                        qrot(lh2, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
                             tr2 = qmul(lh2, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
                             grip_solve(pr2, pp2, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, tp2, tr2,
-                                       tol, ori_tol, 30, g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
+                                       tol, ori_tol, 30, work)
                         for k in range(nl):
                             for c in range(4):
                                 out_local[i, lj[k], c] = loc_l[k, c]

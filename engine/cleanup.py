@@ -210,7 +210,7 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
 from numba import njit
 
 from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, NO_FACE, ORIENT_TOL, \
-    both_arms_solve, grip_solve, orient_finish
+    both_arms_solve, both_fk, gather_chain, grip_solve, grip_target, orient_finish, scatter_chain
 from .ccd import ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, frames_fk
 from .step_nb import Chain, Scratch, scratch, with_limits
@@ -299,17 +299,11 @@ def _start_limits(lo, hi, euler, out_lo, out_hi):
             out_hi[k, c] = max(hi[k, c], a)
 
 @njit(cache=True)
-def _grip_error(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos, rp, r_off, r_eoff, loc_r,
-                gr_rot, gr_pos, rel_p, rel_q):
-    """FK of both arms: (bat, right hand minus its grip target (3,), angle error rad)."""
-    nl = l_off.shape[0]
-    nr = r_off.shape[0]
-    bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
-    rh = chain_fk(q_at(gl_rot, rp), v_at(gl_pos, rp), r_off, r_eoff, loc_r, gr_rot, gr_pos)
-    g_lh = q_at(gl_rot, nl - 1)
-    t_pos = vadd(v_at(gl_pos, nl - 1), qrot(g_lh, rel_p))
-    t_rot = qmul(g_lh, rel_q)
-    return bat, vsub(rh, t_pos), q_angle(q_at(gr_rot, nr - 1), t_rot)
+def _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q):
+    """FK of both arms (engine.adapt.both_fk): (bat, right hand minus its grip target (3,),
+    angle error rad)."""
+    bat, rh, _, t_pos, t_rot = both_fk(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q)
+    return bat, vsub(rh, t_pos), q_angle(q_at(bufs[2], loc_r.shape[0] - 1), t_rot)
 
 @njit(cache=True)
 def _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi):
@@ -321,9 +315,7 @@ def _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi):
         q_put(loc_r, k, from_euler_zyx(eul_r[k, 0], eul_r[k, 1], eul_r[k, 2]))
 
 @njit(cache=True)
-def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-              r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol, rounds,
-              g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e, lh0, hold, gs_rot, gs_pos):
+def _two_arms(prot, ppos, bat0, lh0, hold, arms, free, pose, limits, rel, tols, bufs, works):
     """Both arms onto bat and grip from the given start (in place); where the
     grip is still out of reach, the bat is moved by what is missing and the
     solve runs again (``rounds`` times at most). With ``hold``, the torso keeps
@@ -332,189 +324,164 @@ def _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l,
     only by one point, so it may turn it). Then the right arm alone polishes
     the grip on the final left hand. Returns a score: the grip error (cm, with
     10 cm per radian) plus BAT_COST per cm the bat moved and TURN_COST per
-    degree it turned."""
+    degree it turned. arms, free, pose, limits as engine.adapt.both_arms_solve's;
+    rel = the grip in the left hand's frame (position, rotation); tols = (tol cm,
+    orientation tol rad, rounds); bufs as engine.adapt.both_fk's; works = the grip
+    solves' work of the left arm below the torso and of the right arm."""
+    l_off, l_eoff, r_off, r_eoff, rp = arms
+    loc_l, loc_r, eul = pose
+    lo, hi = limits
+    rel_p, rel_q = rel
+    tol, ori_tol, rounds = tols
+    g_rot, g_pos = bufs[0], bufs[1]
     nl = l_off.shape[0]
     handle = bat0
     for _ in range(rounds):
-        both_arms_solve(prot, ppos, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                        r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, handle, NO_FACE, rel_p, rel_q,
-                        tol, ori_tol, 40)
-        bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
-                                 r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
+        both_arms_solve(prot, ppos, arms, free, pose, limits, (handle, NO_FACE, rel_p, rel_q), tol, ori_tol, 40)
+        bat, d, oe = _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q)
         if vnorm(d) < GRIP_CM and oe < GRIP_RAD:
             break
         handle = vadd(bat, d)
     chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
     if hold:
         a = rp + 1
-        grip_solve(q_at(g_rot, rp), v_at(g_pos, rp), l_off[a:], l_eoff, loc_l[a:], eul_l[a:], l_free[a:],
-                   lo_l[a:], hi_l[a:], handle, lh0, tol, ori_tol, 40, gs_rot, gs_pos, cols6, dofs, A6, x6, r6,
-                   bak_l, bak_e)
+        grip_solve(q_at(g_rot, rp), v_at(g_pos, rp), l_off[a:], l_eoff, loc_l[a:], eul[a:nl], free[0][a:],
+                   lo[a:nl], hi[a:nl], handle, lh0, tol, ori_tol, 40, works[0])
         chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
-    pr = q_at(g_rot, rp)
-    pp = v_at(g_pos, rp)
-    g_lh = q_at(g_rot, nl - 1)
-    t_pos = vadd(v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
-    t_rot = qmul(g_lh, rel_q)
-    pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                        tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
-    bat, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off,
-                             r_eoff, loc_r, gr_rot, gr_pos, rel_p, rel_q)
+    t_pos, t_rot = grip_target(q_at(g_rot, nl - 1), v_at(g_pos, nl - 1), rel_p, rel_q)
+    grip_solve(q_at(g_rot, rp), v_at(g_pos, rp), r_off, r_eoff, loc_r, eul[nl:], free[1], lo[nl:], hi[nl:],
+               t_pos, t_rot, tol, ori_tol, 30, works[1])
+    bat, d, oe = _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q)
     turn = math.degrees(q_angle(q_at(g_rot, nl - 1), lh0))
     return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0)) + TURN_COST * turn
 
 @njit(cache=True)
-def _grip_frames(local, euler, hips_rot, hips_pos, lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
-                 rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w, rp, rel_pos, rel_rot,
-                 tol, ori_tol, rounds):
+def _arm_alone(pr, pp, target, arm_r, pose_r, warm, tols, s_r, work_r):
+    """The right arm alone onto its grip ``target`` (position, rotation) from the frame's
+    pose, in place on pose_r = (local (nr,4), Euler (nr,3), the frame's Euler angles and
+    local rotations). Frames follow each other: first from the previous frame's answer
+    (warm = (there is one, its Euler angles)), so the arm moves smoothly instead of
+    jumping between the several poses that hold the grip; else wrist position, the
+    joints that only turn the hand, both. Returns the grip's (position, angle) error."""
+    loc_r, eul_r, src_r, frame_r = pose_r
+    prev_ok, prev_er = warm
+    t_pos, t_rot = target
+    tol, ori_tol, _ = tols
+    off, eoff, free, lo, hi = arm_r.offsets, arm_r.eff_off, arm_r.free, arm_r.lo, arm_r.hi
+    pe = 1e300
+    oe = 1e300
+    if prev_ok:
+        _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi)
+        pe, oe = grip_solve(pr, pp, off, eoff, loc_r, eul_r, free, lo, hi, t_pos, t_rot, tol, ori_tol, WARM_ITER,
+                            work_r)
+    if pe > GRIP_CM or oe > GRIP_RAD:
+        loc_r[:] = frame_r
+        eul_r[:] = src_r
+        ccd_frame(pr, pp, arm_r, loc_r, eul_r, src_r, t_pos, tol, 200, s_r)
+        orient_finish(pr, pp, off, eoff, loc_r, eul_r, src_r, free, arm_r.kind, lo, hi, t_rot,
+                      work_r[0], work_r[1], 8, ori_tol)
+        pe, oe = grip_solve(pr, pp, off, eoff, loc_r, eul_r, free, lo, hi, t_pos, t_rot, tol, ori_tol, 30, work_r)
+    return pe, oe
+
+@njit(cache=True)
+def _arms_together(prot, ppos, start, arms, free, pose, limits, rel, tols, bufs, works, keep, warm):
+    """Out of the right arm's reach: both arms together (:func:`_two_arms`: the torso
+    leans, the left arm gives), from a few starts for the right arm: the previous frame's
+    answer (warm as :func:`_arm_alone`'s), where the arm-alone solve left it, the frame's
+    pose; the closest grip wins, in place on ``pose``. start = (the bat, the left hand's
+    rotation) the frame began with; keep: work buffers (start_l, start_el, ccd_r, ccd_er,
+    best_l, best_r, best_er, the frame's right local rotations and Euler angles)."""
+    loc_l, loc_r, eul = pose
+    lo, hi = limits
+    nl = loc_l.shape[0]
+    eul_l, eul_r = eul[:nl], eul[nl:]
+    start_l, start_el, ccd_r, ccd_er, best_l, best_r, best_er, frame_r, src_r = keep
+    prev_ok, prev_er = warm
+    start_l[:] = loc_l
+    start_el[:] = eul_l
+    best = 1e300
+    ccd_r[:] = loc_r
+    ccd_er[:] = eul_r
+    for attempt in range(6):
+        trial = attempt // 2
+        loc_l[:] = start_l
+        eul_l[:] = start_el
+        if trial == 0:
+            if not prev_ok:
+                continue
+            _warm_right(loc_r, eul_r, prev_er, src_r, free[1], lo[nl:], hi[nl:])
+        elif trial == 1:
+            loc_r[:] = ccd_r
+            eul_r[:] = ccd_er
+        else:
+            loc_r[:] = frame_r
+            eul_r[:] = src_r
+        score = _two_arms(prot, ppos, start[0], start[1], attempt % 2 == 0, arms, free, pose, limits, rel, tols,
+                          bufs, works)
+        if score < best:
+            best = score
+            best_l[:] = loc_l
+            best_r[:] = loc_r
+            best_er[:] = eul_r
+        if score < GRIP_CM + GRIP_LENGTH * GRIP_RAD:
+            break
+    loc_l[:] = best_l
+    loc_r[:] = best_r
+    eul_r[:] = best_er
+
+@njit(cache=True)
+def _grip_frames(local, euler, hips, left, right, rp, rel_pos, rel_rot, tols):
     """Every frame of ``local (F,J,4)`` (in place; ``euler (F,J,3)`` radians
     on the limits' branch) gets its right hand onto its grip
     ``rel_pos (F,3)`` / ``rel_rot (F,4)`` in the left hand's frame.
-    ``hips_*``: the global pose of the left chain's parent per frame."""
-    F = local.shape[0]
-    nl = lj.shape[0]
-    nr = rj.shape[0]
+    ``hips`` = (rotations (F,4), positions (F,3)): the global pose of the left chain's
+    parent per frame; left, right: the arm chains (the :data:`engine.step_nb.Chain`'s
+    fields as plain tuples); tols = (tol cm, orientation tol rad, rounds)."""
+    left = Chain(*left)
+    right = Chain(*right)
+    lj, rj = left.joints, right.joints
+    nl, nr = lj.shape[0], rj.shape[0]
     nmax = max(nl, nr)
-    g_rot = np.empty((nmax, 4))
-    g_pos = np.empty((nmax, 3))
-    gr_rot = np.empty((nr, 4))
-    gr_pos = np.empty((nr, 3))
-    cols = np.empty((3 * nmax, 3))
-    cols6 = np.empty((3 * nmax, 7))
-    dofs = np.empty((3 * nmax, 2), np.int64)
-    A6 = np.empty((6, 6))
-    x6 = np.empty(6)
-    r6 = np.empty(6)
-    bak_l = np.empty((nmax, 4))
-    bak_e = np.empty((nmax, 3))
-    loc_l = np.empty((nl, 4))
-    eul_l = np.empty((nl, 3))
-    lo_l = np.empty((nl, 3))
-    hi_l = np.empty((nl, 3))
-    loc_r = np.empty((nr, 4))
-    eul_r = np.empty((nr, 3))
-    src_r = np.empty((nr, 3))
-    lo_r = np.empty((nr, 3))
-    hi_r = np.empty((nr, 3))
-    bat_moved = np.zeros(F)
-    start_l = np.empty((nl, 4))
-    start_el = np.empty((nl, 3))
-    best_l = np.empty((nl, 4))
-    best_r = np.empty((nr, 4))
-    best_er = np.empty((nr, 3))
-    prev_er = np.empty((nr, 3))
-    ccd_r = np.empty((nr, 4))
-    ccd_er = np.empty((nr, 3))
-    gs_rot = np.empty((nl, 4))
-    gs_pos = np.empty((nl, 3))
-    arm_r = Chain(rj, r_off, r_eoff, r_free, r_kind, lo_r, hi_r, r_w)    # (lo/hi: the frame's, filled below)
-    s_r = Scratch(gr_rot, gr_pos, cols, dofs, bak_l, bak_e)
+    tol, ori_tol = tols[0], tols[1]
+    bufs = (np.empty((nmax, 4)), np.empty((nmax, 3)), np.empty((nr, 4)), np.empty((nr, 3)))
+    s_r = Scratch(bufs[2], bufs[3], np.empty((3 * nmax, 3)), np.empty((3 * nmax, 2), np.int64),
+                  np.empty((nmax, 4)), np.empty((nmax, 3)))
+    step6 = (np.empty((3 * nmax, 7)), s_r.dofs, np.empty((6, 6)), np.empty(6), np.empty(6), s_r.bak_l, s_r.bak_e)
+    works = ((np.empty((nl, 4)), np.empty((nl, 3))) + step6, (bufs[2], bufs[3]) + step6)
+    loc_l, loc_r = np.empty((nl, 4)), np.empty((nr, 4))
+    eul, lo, hi = np.empty((nl + nr, 3)), np.empty((nl + nr, 3)), np.empty((nl + nr, 3))
+    eul_l, eul_r = eul[:nl], eul[nl:]
+    src_r, frame_r, prev_er = np.empty((nr, 3)), np.empty((nr, 4)), np.empty((nr, 3))
+    keep = (np.empty((nl, 4)), np.empty((nl, 3)), np.empty((nr, 4)), np.empty((nr, 3)), np.empty((nl, 4)),
+            np.empty((nr, 4)), np.empty((nr, 3)), frame_r, src_r)
+    arms = (left.offsets, left.eff_off, right.offsets, right.eff_off, rp)
+    arm_r = with_limits(right, lo[nl:], hi[nl:])    # (the frame's limits, filled below)
+    bat_moved = np.zeros(local.shape[0])
     prev_ok = 0
-    for f in range(F):
-        for k in range(nl):
-            for c in range(4):
-                loc_l[k, c] = local[f, lj[k], c]
-            for c in range(3):
-                eul_l[k, c] = euler[f, lj[k], c]
-        for k in range(nr):
-            for c in range(4):
-                loc_r[k, c] = local[f, rj[k], c]
-            for c in range(3):
-                eul_r[k, c] = euler[f, rj[k], c]
-                src_r[k, c] = eul_r[k, c]
-        _start_limits(l_lo, l_hi, eul_l, lo_l, hi_l)
-        _start_limits(r_lo, r_hi, eul_r, lo_r, hi_r)
-        for k in range(nr):
-            for c in range(3):
-                src_r[k, c] = eul_r[k, c]
-        prot = (hips_rot[f, 0], hips_rot[f, 1], hips_rot[f, 2], hips_rot[f, 3])
-        ppos = (hips_pos[f, 0], hips_pos[f, 1], hips_pos[f, 2])
-        rel_p = (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])
-        rel_q = (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])
-        bat0, d, oe = _grip_error(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos, rp, r_off, r_eoff,
-                                  loc_r, gr_rot, gr_pos, rel_p, rel_q)
-        lh0 = q_at(g_rot, nl - 1)      # the left hand (and so the bat) as the new motion turns it
-        if vnorm(d) < tol and oe < ori_tol:
-            prev_er[:] = eul_r
-            prev_ok = 1
-            continue
-        # 1. the right arm alone. Frames follow each other: first from the previous frame's
-        # answer (so the arm moves smoothly instead of jumping between the several poses
-        # that hold the grip), else wrist position, the joints that only turn the hand, both
-        pr = q_at(g_rot, rp)
-        pp = v_at(g_pos, rp)
-        g_lh = q_at(g_rot, nl - 1)
-        t_pos = vadd(v_at(g_pos, nl - 1), qrot(g_lh, rel_p))
-        t_rot = qmul(g_lh, rel_q)
-        pe = 1e300
-        oe = 1e300
-        if prev_ok:
-            _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
-            pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                                tol, ori_tol, WARM_ITER, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
-        if pe > GRIP_CM or oe > GRIP_RAD:
-            for k in range(nr):
-                for c in range(4):
-                    loc_r[k, c] = local[f, rj[k], c]
-            eul_r[:] = src_r
-            ccd_frame(pr, pp, arm_r, loc_r, eul_r, src_r, t_pos, tol, 200, s_r)
-            orient_finish(pr, pp, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, t_rot,
-                          gr_rot, gr_pos, 8, ori_tol)
-            pe, oe = grip_solve(pr, pp, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos, t_rot,
-                                tol, ori_tol, 30, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
-        if pe > GRIP_CM or oe > GRIP_RAD:
-            # 2. out of reach: both arms together (the torso leans, the left arm gives), from
-            # a few starts for the right arm: where the arm-alone solve left it, the new
-            # motion's pose, the previous frame's answer; the closest grip wins
-            for k in range(nl):
-                for c in range(4):
-                    start_l[k, c] = local[f, lj[k], c]
-                for c in range(3):
-                    start_el[k, c] = eul_l[k, c]
-            best = 1e300
-            ccd_r[:] = loc_r
-            ccd_er[:] = eul_r
-            for attempt in range(6):
-                trial = attempt // 2
-                for k in range(nl):
-                    for c in range(4):
-                        loc_l[k, c] = start_l[k, c]
-                    for c in range(3):
-                        eul_l[k, c] = start_el[k, c]
-                if trial == 0:
-                    if not prev_ok:
-                        continue
-                    _warm_right(loc_r, eul_r, prev_er, src_r, r_free, lo_r, hi_r)
-                elif trial == 1:
-                    loc_r[:] = ccd_r
-                    eul_r[:] = ccd_er
-                else:
-                    for k in range(nr):
-                        for c in range(4):
-                            loc_r[k, c] = local[f, rj[k], c]
-                    eul_r[:] = src_r
-                score = _two_arms(prot, ppos, bat0, l_off, l_eoff, loc_l, eul_l, l_free, lo_l, hi_l, rp,
-                                  r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, rel_p, rel_q, tol, ori_tol,
-                                  rounds, g_rot, g_pos, gr_rot, gr_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e,
-                                  lh0, attempt % 2 == 0, gs_rot, gs_pos)
-                if score < best:
-                    best = score
-                    best_l[:] = loc_l
-                    best_r[:] = loc_r
-                    best_er[:] = eul_r
-                if score < GRIP_CM + GRIP_LENGTH * GRIP_RAD:
-                    break
-            loc_l[:] = best_l
-            loc_r[:] = best_r
-            eul_r[:] = best_er
-            bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
-            bat_moved[f] = vnorm(vsub(bat, bat0))
-            for k in range(nl):
-                for c in range(4):
-                    local[f, lj[k], c] = loc_l[k, c]
-        for k in range(nr):
-            for c in range(4):
-                local[f, rj[k], c] = loc_r[k, c]
+    for f in range(local.shape[0]):
+        gather_chain(local[f], lj, loc_l)
+        gather_chain(euler[f], lj, eul_l)
+        gather_chain(local[f], rj, loc_r)
+        gather_chain(euler[f], rj, eul_r)
+        _start_limits(left.lo, left.hi, eul_l, lo[:nl], hi[:nl])
+        _start_limits(right.lo, right.hi, eul_r, lo[nl:], hi[nl:])
+        src_r[:] = eul_r
+        frame_r[:] = loc_r
+        prot, ppos = q_at(hips[0], f), v_at(hips[1], f)
+        rel = (v_at(rel_pos, f), q_at(rel_rot, f))
+        bat0, d, oe = _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel[0], rel[1])
+        lh0 = q_at(bufs[0], nl - 1)      # the left hand (and so the bat) as the new motion turns it
+        if not (vnorm(d) < tol and oe < ori_tol):
+            target = grip_target(lh0, v_at(bufs[1], nl - 1), rel[0], rel[1])
+            pe, oe = _arm_alone(q_at(bufs[0], rp), v_at(bufs[1], rp), target, arm_r, (loc_r, eul_r, src_r, frame_r),
+                                (prev_ok, prev_er), tols, s_r, works[1])
+            if pe > GRIP_CM or oe > GRIP_RAD:
+                _arms_together(prot, ppos, (bat0, lh0), arms, (left.free, right.free), (loc_l, loc_r, eul),
+                               (lo, hi), rel, tols, bufs, works, keep, (prev_ok, prev_er))
+                bat = chain_fk(prot, ppos, left.offsets, left.eff_off, loc_l, bufs[0], bufs[1])
+                bat_moved[f] = vnorm(vsub(bat, bat0))
+                scatter_chain(loc_l, lj, local[f])
+            scatter_chain(loc_r, rj, local[f])
         prev_er[:] = eul_r
         prev_ok = 1
     return bat_moved
@@ -531,13 +498,11 @@ def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, 
     g_rot, g_pos = _fk(skeleton, clip)
     local = np.ascontiguousarray(clip.local_rotations, float)
     euler = np.ascontiguousarray(np.radians(limit_euler(local, rig.limits)))
-    w_l, w_r = (np.ascontiguousarray(c.polish_weight, float) for c in (left, right))
-    moved = _grip_frames(local, euler, np.ascontiguousarray(g_rot[:, left.parent]),
-                         np.ascontiguousarray(g_pos[:, left.parent]),
-                         left.joints, left.offsets, left.eff_off, left.free, left.kind, left.lo, left.hi, w_l,
-                         right.joints, right.offsets, right.eff_off, right.free, right.kind, right.lo,
-                         right.hi, w_r, rp, np.ascontiguousarray(rel_pos, float),
-                         np.ascontiguousarray(rel_rot, float), float(tolerance), ORIENT_TOL, BAT_GIVE_ROUNDS)
+    moved = _grip_frames(local, euler, (np.ascontiguousarray(g_rot[:, left.parent]),
+                                        np.ascontiguousarray(g_pos[:, left.parent])),
+                         left.kernel_tuple("polish"), right.kernel_tuple("polish"), rp,
+                         np.ascontiguousarray(rel_pos, float), np.ascontiguousarray(rel_rot, float),
+                         (float(tolerance), ORIENT_TOL, BAT_GIVE_ROUNDS))
     clip.local_rotations[:] = local
     return moved
 
