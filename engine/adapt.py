@@ -27,7 +27,7 @@ from .fk_nb import chain_fk, tree_fk
 from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations, relative_pose
-from .step_nb import MAX_STEP, Chain, hinge_axis, scratch
+from .step_nb import MAX_STEP, Chain, hinge_axis, scratch, with_limits
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
@@ -612,44 +612,30 @@ def _solve_chain(solver, prot, ppos, ch, local, euler, src_euler, handle, tol, m
     return dls_frame(prot, ppos, ch, local, euler, damping, handle, tol, max_iter, s)
 
 
-@njit(cache=True)
-def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_grot, src_gpos,
-                  src_euler, subtree_l, subtree_r, bat, lhand,
-                  lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w,
-                  rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w,
-                  rel_pos, rel_rot, rp, fix_right, solver, tol, max_iter, damping, ori_tol,
-                  face, out_local, out_grot, out_gpos, out_blend, out_handle, out_err, out_gcm, out_gdeg):
-    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1.
-    face = (keep, free (nl,3), normal in the bat's frame (3,), turn (3,)): when kept, after
-    the position solve the left arm's ``free`` joints turn the bat face to the source's,
-    turned by the rotation vector ``turn`` times the frame's blend."""
+@njit(cache=True, inline='always')
+def _bat_frames(frames, desired, blends, shot, start, left, opts, face, out, bufs, s, work, kept):
+    """Every frame's left arm (the first pass of :func:`_adapt_frames`, arguments as
+    there): the bat joint onto its handle from the start pose, then with the face kept
+    the face turned to the source's (turned by ``turn`` times the blend); the pose into
+    ``out`` (FK of the left chain's subtree); into kept = (steps (K,) (0: untouched),
+    the face's target normal and its normal in the left hand's frame (K,2,3), the left
+    arm's Euler angles (K,nl,3)) what the second pass needs. Inlined (called once): a
+    call passing some fifty arrays cost a one-frame adaptation ~1 us."""
+    parents, trans, subtree, src_grot, src_gpos, _, _, hit, bat, lhand, _ = shot
+    src_local, src_euler = start
+    lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w = left
+    _, solver, tol, max_iter, damping, _ = opts
     keep_face, face_free, face_w, face_local, face_turn = face
+    out_local, out_grot, out_gpos, out_blend, out_handle, out_err, _, _ = out
+    loc_l, _, src_l, _, eul, lo, hi = bufs
+    steps, n_face, eul_kept = kept
     nl = lj.shape[0]
-    nr = rj.shape[0]
-    nmax = max(nl, nr)
-    s = scratch(nmax)
-    g_rot, g_pos, _, dofs, bak_l, bak_e = s
-    loc_l = np.empty((nl, 4))
-    src_l = np.empty((nl, 3))
-    cols6 = np.empty((3 * nmax, 7))
-    A6 = np.empty((6, 6))
-    x6 = np.empty(6)
-    r6 = np.empty(6)
-    eul = np.empty((nl + nr, 3))      # both arms' angles and limits, left first (the two-arm solve's)
-    lo = np.empty((nl + nr, 3))
-    hi = np.empty((nl + nr, 3))
-    eul_l, eul_r = eul[:nl], eul[nl:]
-    lo_l, lo_r = lo[:nl], lo[nl:]
-    hi_l, hi_r = hi[:nl], hi[nl:]
-    loc_r = np.empty((nr, 4))
-    src_r = np.empty((nr, 3))
-    rh = rj[nr - 1]
+    eul_l, lo_l, hi_l = eul[:nl], lo[:nl], hi[:nl]
+    g_rot, g_pos = s.g_rot, s.g_pos
+    ch_l = Chain(lj, l_off, l_eoff, l_free, l_kind, lo_l, hi_l, l_w)    # (lo/hi: the frame's, filled below)
     b_h = (src_gpos[hit, bat, 0], src_gpos[hit, bat, 1], src_gpos[hit, bat, 2])
     r_h = (src_grot[hit, bat, 0], src_grot[hit, bat, 1], src_grot[hit, bat, 2], src_grot[hit, bat, 3])
     offset = qrot(qconj(r_h), vsub((desired[0], desired[1], desired[2]), b_h))
-    work = (g_rot, g_pos, cols6, dofs, A6, x6, r6, bak_l, bak_e)
-    ch_l = Chain(lj, l_off, l_eoff, l_free, l_kind, lo_l, hi_l, l_w)    # (lo/hi: the frame's, filled below)
-    ch_r = Chain(rj, r_off, r_eoff, r_free, r_kind, lo_r, hi_r, r_w)
     n_bat = (face_local[0], face_local[1], face_local[2])
     for i in range(frames.shape[0]):
         f = frames[i]
@@ -663,7 +649,6 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
         handle = (b_f[0] + blend * o[0], b_f[1] + blend * o[1], b_f[2] + blend * o[2])
         out_blend[i] = blend
         v_put(out_handle, i, handle)
-        # left arm: bat joint onto the handle
         for k in range(nl):
             for c in range(4):
                 loc_l[k, c] = src_local[f, lj[k], c]
@@ -687,9 +672,8 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
             # distance 1.84 -> 1.76, position only 1.37)
             chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
             n_pos = qrot(q_at(g_rot, nl - 1), n_last)
-            wb = blend
-            n_b = vadd((n_pos[0] * (1.0 - wb), n_pos[1] * (1.0 - wb), n_pos[2] * (1.0 - wb)),
-                       (n_tgt[0] * wb, n_tgt[1] * wb, n_tgt[2] * wb))
+            n_b = vadd((n_pos[0] * (1.0 - blend), n_pos[1] * (1.0 - blend), n_pos[2] * (1.0 - blend)),
+                       (n_tgt[0] * blend, n_tgt[1] * blend, n_tgt[2] * blend))
             nb = vnorm(n_b)
             if nb > 1e-9:
                 n_tgt = (n_b[0] / nb, n_b[1] / nb, n_b[2] / nb)
@@ -701,15 +685,89 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
             for k in range(nl):
                 for c in range(4):
                     out_local[i, lj[k], c] = loc_l[k, c]
-            tree_fk(parents, trans[f], out_local[i], subtree_l, out_grot[i], out_gpos[i])
+            tree_fk(parents, trans[f], out_local[i], subtree, out_grot[i], out_gpos[i])
         bpos = (out_gpos[i, bat, 0], out_gpos[i, bat, 1], out_gpos[i, bat, 2])
         out_err[i] = vnorm(vsub(bpos, handle))
-        # right hand back on its source grip relative to the left hand
+        steps[i] = its
+        for c in range(3):
+            n_face[i, 0, c] = n_tgt[c]
+            n_face[i, 1, c] = n_last[c]
+        eul_kept[i] = eul_l
+
+
+@njit(cache=True)
+def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work, kept):
+    """Frame f's right hand out of the right arm's reach (in :func:`_hand_frames`): both
+    arms together from the first pass's left arm (the torso leans, and with the face kept
+    the roll joints turn too), the grip before the face (without the face if they clash);
+    where the bat gave way to the grip, the bat back on its handle and the right arm
+    again. The left arm into out's local rotations of slot i; the right arm in bufs."""
+    parents, _, _, src_grot, src_gpos, rel_pos, rel_rot, _, _, _, rp = shot
+    lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w = left
+    _, solver, tol, max_iter, damping, ori_tol = opts
+    keep_face, face_free = face[0], face[1]
+    loc_l, loc_r, src_l, _, eul, lo, hi = bufs
+    nl = lj.shape[0]
+    eul_l, eul_r = eul[:nl], eul[nl:]
+    gather_chain(out[0][i], lj, loc_l)
+    gather_chain(start[1][f], lj, src_l)
+    eul_l[:] = kept[2][i]
+    _effective_limits(l_lo, l_hi, src_l, lo[:nl], hi[:nl])
+    handle = v_at(out[4], i)
+    rel_p, rel_q = v_at(rel_pos, f), q_at(rel_rot, f)
+    pj = parents[lj[0]]
+    prl = q_at(src_grot[f], pj)
+    ppl = v_at(src_gpos[f], pj)
+    arms = (l_off, l_eoff, right[1], right[2], rp)
+    both_free = face_free if keep_face else l_free
+    fw = FACE_LENGTH if keep_face else 0.0
+    for _try in range(2):   # the grip before the face: without it if they clash
+        pe, oe = both_arms_solve(prl, ppl, arms, (both_free, right[3]), (loc_l, loc_r, eul), (lo, hi),
+                                 (handle, (fw, v_at(kept[1][i], 0), v_at(kept[1][i], 1)), rel_p, rel_q),
+                                 tol, ori_tol, 40)
+        if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
+            break
+        fw = 0.0
+    b2 = chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos)
+    if vnorm(vsub(b2, handle)) >= tol:
+        # the bat gave way to the grip: put it back, then the right arm again
+        ch_l = Chain(lj, l_off, l_eoff, l_free, l_kind, lo[:nl], hi[:nl], l_w)
+        _solve_chain(solver, prl, ppl, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
+        chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos)
+        t_pos, t_rot = grip_target(q_at(s.g_rot, nl - 1), v_at(s.g_pos, nl - 1), rel_p, rel_q)
+        grip_solve(q_at(s.g_rot, rp), v_at(s.g_pos, rp), right[1], right[2], loc_r, eul_r, right[3], lo[nl:],
+                   hi[nl:], t_pos, t_rot, tol, ori_tol, 30, work)
+    scatter_chain(loc_l, lj, out[0][i])
+
+
+@njit(cache=True, inline='always')
+def _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, work, kept):
+    """Every frame's right hand back on its source grip relative to the left hand (the
+    second pass of :func:`_adapt_frames`, after :func:`_bat_frames`): where the left arm
+    moved, wrist position first (as the dissertation), then the joints that turn the hand
+    without moving the wrist; if limits keep the hand off its grip, both together by
+    damped Newton (:func:`_torso_helps`). Then the grip's errors. Inlined, as
+    :func:`_bat_frames`."""
+    parents, trans, subtree, _, _, rel_pos, rel_rot, _, bat, lhand, rp = shot
+    src_euler = start[1]
+    rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w = right
+    fix_right, solver, tol, max_iter, damping, ori_tol = opts
+    out_local, out_grot, out_gpos, _, out_handle, out_err, out_gcm, out_gdeg = out
+    _, loc_r, _, src_r, eul, lo, hi = bufs
+    g_rot, g_pos = s.g_rot, s.g_pos
+    nr = rj.shape[0]
+    nl = eul.shape[0] - nr
+    eul_r, lo_r, hi_r = eul[nl:], lo[nl:], hi[nl:]
+    ch_r = Chain(rj, r_off, r_eoff, r_free, r_kind, lo_r, hi_r, r_w)    # (lo/hi: the frame's, filled below)
+    rh = rj[nr - 1]
+    for i in range(frames.shape[0]):
+        f = frames[i]
         g_lh = (out_grot[i, lhand, 0], out_grot[i, lhand, 1], out_grot[i, lhand, 2], out_grot[i, lhand, 3])
         p_lh = (out_gpos[i, lhand, 0], out_gpos[i, lhand, 1], out_gpos[i, lhand, 2])
-        t_pos = vadd(p_lh, qrot(g_lh, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
-        t_rot = qmul(g_lh, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
-        if fix_right and its > 0:
+        rel_p = (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])
+        rel_q = (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])
+        t_pos, t_rot = grip_target(g_lh, p_lh, rel_p, rel_q)
+        if fix_right and kept[0][i] > 0:
             for k in range(nr):
                 for c in range(4):
                     loc_r[k, c] = out_local[i, rj[k], c]
@@ -721,13 +779,7 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
             prot = (out_grot[i, pj, 0], out_grot[i, pj, 1], out_grot[i, pj, 2], out_grot[i, pj, 3])
             ppos = (out_gpos[i, pj, 0], out_gpos[i, pj, 1], out_gpos[i, pj, 2])
             eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
-            moved = (vnorm(vsub(eff, t_pos)) >= tol
-                     or q_angle((g_rot[nr - 1, 0], g_rot[nr - 1, 1], g_rot[nr - 1, 2], g_rot[nr - 1, 3]),
-                                t_rot) >= ori_tol)
-            if moved:
-                # wrist position first (as the dissertation), then the joints
-                # that turn the hand without moving the wrist; if limits keep the
-                # hand off its grip, both together by damped Newton
+            if vnorm(vsub(eff, t_pos)) >= tol or q_angle(q_at(g_rot, nr - 1), t_rot) >= ori_tol:
                 _solve_chain(solver, prot, ppos, ch_r, loc_r, eul_r, src_r, t_pos, tol, max_iter, damping, s)
                 oe = orient_finish(prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind,
                                    lo_r, hi_r, t_rot, g_rot, g_pos, 8, ori_tol)
@@ -736,57 +788,49 @@ def _adapt_frames(frames, hit, desired, blends, parents, trans, src_local, src_g
                     pe, oe = grip_solve(prot, ppos, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, t_pos,
                                         t_rot, tol, ori_tol, 30, work)
                     if (pe > GRIP_CM or oe > GRIP_RAD) and rp >= 0:
-                        # out of the right arm's reach: let the torso help (and the roll
-                        # joints, with the face kept)
-                        both_free = face_free if keep_face else l_free
-                        pj = parents[lj[0]]
-                        fw = FACE_LENGTH if keep_face else 0.0
-                        for _try in range(2):   # the grip before the face: without it if they clash
-                            pe, oe = both_arms_solve((src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2],
-                                                      src_grot[f, pj, 3]),
-                                                     (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2]),
-                                                     (l_off, l_eoff, r_off, r_eoff, rp), (both_free, r_free),
-                                                     (loc_l, loc_r, eul), (lo, hi),
-                                                     (handle, (fw, n_tgt, n_last),
-                                                      (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2]),
-                                                      (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])),
-                                                     tol, ori_tol, 40)
-                            if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
-                                break
-                            fw = 0.0
-                        prl = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
-                        ppl = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
-                        b2 = chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
-                        if vnorm(vsub(b2, handle)) >= tol:
-                            # the bat gave way to the grip: put it back, then the right arm again
-                            _solve_chain(solver, prl, ppl, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
-                            chain_fk(prl, ppl, l_off, l_eoff, loc_l, g_rot, g_pos)
-                            pr2 = (g_rot[rp, 0], g_rot[rp, 1], g_rot[rp, 2], g_rot[rp, 3])
-                            pp2 = (g_pos[rp, 0], g_pos[rp, 1], g_pos[rp, 2])
-                            lh2 = (g_rot[nl - 1, 0], g_rot[nl - 1, 1], g_rot[nl - 1, 2], g_rot[nl - 1, 3])
-                            tp2 = vadd((g_pos[nl - 1, 0], g_pos[nl - 1, 1], g_pos[nl - 1, 2]),
-                                       qrot(lh2, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
-                            tr2 = qmul(lh2, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
-                            grip_solve(pr2, pp2, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, tp2, tr2,
-                                       tol, ori_tol, 30, work)
-                        for k in range(nl):
-                            for c in range(4):
-                                out_local[i, lj[k], c] = loc_l[k, c]
+                        # out of the right arm's reach: let the torso help
+                        _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work, kept)
                 for k in range(nr):
                     for c in range(4):
                         out_local[i, rj[k], c] = loc_r[k, c]
-                tree_fk(parents, trans[f], out_local[i], subtree_l, out_grot[i], out_gpos[i])
+                tree_fk(parents, trans[f], out_local[i], subtree, out_grot[i], out_gpos[i])
                 bpos = (out_gpos[i, bat, 0], out_gpos[i, bat, 1], out_gpos[i, bat, 2])
-                out_err[i] = vnorm(vsub(bpos, handle))
-                g_lh = (out_grot[i, lhand, 0], out_grot[i, lhand, 1], out_grot[i, lhand, 2],
-                        out_grot[i, lhand, 3])
+                out_err[i] = vnorm(vsub(bpos, (out_handle[i, 0], out_handle[i, 1], out_handle[i, 2])))
+                g_lh = (out_grot[i, lhand, 0], out_grot[i, lhand, 1], out_grot[i, lhand, 2], out_grot[i, lhand, 3])
                 p_lh = (out_gpos[i, lhand, 0], out_gpos[i, lhand, 1], out_gpos[i, lhand, 2])
-                t_pos = vadd(p_lh, qrot(g_lh, (rel_pos[f, 0], rel_pos[f, 1], rel_pos[f, 2])))
-                t_rot = qmul(g_lh, (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3]))
+                t_pos, t_rot = grip_target(g_lh, p_lh, rel_p, rel_q)
         g_rh = (out_grot[i, rh, 0], out_grot[i, rh, 1], out_grot[i, rh, 2], out_grot[i, rh, 3])
         p_rh = (out_gpos[i, rh, 0], out_gpos[i, rh, 1], out_gpos[i, rh, 2])
         out_gcm[i] = vnorm(vsub(p_rh, t_pos))
         out_gdeg[i] = math.degrees(q_angle(g_rh, t_rot))
+
+
+@njit(cache=True)
+def _adapt_frames(frames, desired, blends, shot, start, left, right, opts, face, out):
+    """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1 of ``out`` =
+    (local rotations, global rotations, global positions, blend, handle, bat error, grip
+    error cm, grip error deg): the left arms (:func:`_bat_frames`), then the right hands
+    (:func:`_hand_frames`); frames are independent. shot = (parents, trans, subtree of the
+    left chain, source global rotations, positions, the grip in the left hand's frame:
+    positions, rotations, hit frame, bat joint, left hand joint, rp: the left chain's joint
+    the right arm hangs from); start = (local rotations, their limit-branch Euler angles)
+    the chains start from; left, right: the arm chains (:data:`engine.step_nb.Chain`'s
+    fields as plain tuples); opts = (fix the right hand, solver index, tol cm, iterations,
+    damping, orientation tol rad); face = (keep, free (nl,3), weights (nl,), normal in the
+    bat's frame (3,), turn (3,)): when kept, after the position solve the left arm's
+    ``free`` joints turn the bat face to the source's, turned by the rotation vector
+    ``turn`` times the frame's blend."""
+    nl, nr = left[0].shape[0], right[0].shape[0]
+    K = frames.shape[0]
+    s = scratch(max(nl, nr))
+    work = (s.g_rot, s.g_pos, np.empty((3 * max(nl, nr), 7)), s.dofs, np.empty((6, 6)), np.empty(6), np.empty(6),
+            s.bak_l, s.bak_e)
+    # loc_l, loc_r, src_l, src_r, both arms' Euler angles and the frame's limits (left first)
+    bufs = (np.empty((nl, 4)), np.empty((nr, 4)), np.empty((nl, 3)), np.empty((nr, 3)), np.empty((nl + nr, 3)),
+            np.empty((nl + nr, 3)), np.empty((nl + nr, 3)))
+    kept = (np.empty(K, np.int64), np.empty((K, 2, 3)), np.empty((K, nl, 3)))
+    _bat_frames(frames, desired, blends, shot, start, left, opts, face, out, bufs, s, work, kept)
+    _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, work, kept)
 
 
 # --------------------------------------------------------------------------
@@ -880,6 +924,8 @@ class Adapter:
         self.bat_positions = self.src_gpos[:, self.bat]
         n = np.asarray(rig.bat["face_normal"], float)
         self.face_local = n / np.linalg.norm(n)
+        self._shot_args = (self.parents, self.trans, self.subtree_l, self.src_grot, self.src_gpos, self.rel_pos,
+                           self.rel_rot, self.hit_frame, self.bat, self.lhand, self.right_parent_in_left)
 
     @property
     def max_falloff(self) -> float:
@@ -949,8 +995,8 @@ class Adapter:
                     # locked, the source's twist is put back after every step
                     roll = twist_only(free)
                     free, kind = free & ~roll[:, None], np.where(roll, KIND_NONE, kind)
-                out += [ch.joints, ch.offsets, ch.eff_off, np.ascontiguousarray(free), np.ascontiguousarray(kind),
-                        ch.lo, ch.hi, np.ascontiguousarray(w, float)]
+                out.append((ch.joints, ch.offsets, ch.eff_off, np.ascontiguousarray(free),
+                            np.ascontiguousarray(kind), ch.lo, ch.hi, np.ascontiguousarray(w, float)))
                 if name == "left_arm":
                     face_free = np.ascontiguousarray(ch.free)     # the roll joints too
             self._chains[key] = (tuple(out), face_free)
@@ -976,14 +1022,11 @@ class Adapter:
                np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
         start_local, start_euler = self._start_pose(start)
         chains, face_free = self._chain_args(settings)
-        _adapt_frames(frames, self.hit_frame, p, self._blend_for(float(settings.falloff)), self.parents, self.trans,
-                      start_local, self.src_grot, self.src_gpos, start_euler,
-                      self.subtree_l, self.subtree_r, self.bat, self.lhand,
-                      *chains,
-                      self.rel_pos, self.rel_rot, self.right_parent_in_left, bool(settings.fix_right_hand),
-                      SOLVERS.index(settings.solver), float(settings.tolerance), int(settings.iterations),
-                      DAMPING, ORIENT_TOL, (settings.face == "keep", face_free, self.face_w, self.face_local,
-                                            self.face_turn(p, settings)), *out)
+        _adapt_frames(frames, p, self._blend_for(float(settings.falloff)), self._shot_args, (start_local, start_euler),
+                      *chains, (bool(settings.fix_right_hand), SOLVERS.index(settings.solver),
+                                float(settings.tolerance), int(settings.iterations), DAMPING, ORIENT_TOL),
+                      (settings.face == "keep", face_free, self.face_w, self.face_local, self.face_turn(p, settings)),
+                      out)
         return out, p
 
     def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None) -> Adaptation:

@@ -355,14 +355,15 @@ def _two_arms(prot, ppos, bat0, lh0, hold, arms, free, pose, limits, rel, tols, 
     turn = math.degrees(q_angle(q_at(g_rot, nl - 1), lh0))
     return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0)) + TURN_COST * turn
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _arm_alone(pr, pp, target, arm_r, pose_r, warm, tols, s_r, work_r):
     """The right arm alone onto its grip ``target`` (position, rotation) from the frame's
     pose, in place on pose_r = (local (nr,4), Euler (nr,3), the frame's Euler angles and
     local rotations). Frames follow each other: first from the previous frame's answer
     (warm = (there is one, its Euler angles)), so the arm moves smoothly instead of
     jumping between the several poses that hold the grip; else wrist position, the
-    joints that only turn the hand, both. Returns the grip's (position, angle) error."""
+    joints that only turn the hand, both. Returns the grip's (position, angle) error.
+    Inlined (one call a frame): a call passing its twenty arrays costs."""
     loc_r, eul_r, src_r, frame_r = pose_r
     prev_ok, prev_er = warm
     t_pos, t_rot = target
