@@ -238,7 +238,7 @@ def lsq_apply(cols, dofs, m, R, r, euler, lo, hi, damping, max_step, A, x):
             break
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def put_free_locals(local, euler, free):
     """The local rotations of the joints with a free column from their Euler angles."""
     for k in range(local.shape[0]):
@@ -246,7 +246,7 @@ def put_free_locals(local, euler, free):
             q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def gather_chain(pose, joints, out):
     """The chain joints' rows of one pose ``pose (J, w)`` into ``out (n, w)``."""
     for k in range(joints.shape[0]):
@@ -254,7 +254,7 @@ def gather_chain(pose, joints, out):
             out[k, c] = pose[joints[k], c]
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def scatter_chain(rows, joints, pose):
     """The chain joints' rows ``rows (n, w)`` into one pose ``pose (J, w)``."""
     for k in range(joints.shape[0]):
@@ -410,14 +410,14 @@ def _solve_spd(A, r, x, R):
         x[i] = t / A[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def grip_target(g_lh, p_lh, rel_p, rel_q):
     """The right hand's grip (position, rotation) carried by the left hand's global
     rotation ``g_lh`` and position ``p_lh``: engine.skeleton.carried_pose, compiled."""
     return vadd(p_lh, qrot(g_lh, rel_p)), qmul(g_lh, rel_q)
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def both_fk(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q):
     """FK of both arm chains into ``bufs`` = (left g_rot, g_pos, right g_rot, g_pos);
     arms = (left offsets, left effector offset, right offsets, right effector offset, rp:
@@ -514,7 +514,7 @@ def _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols,
     return m
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _both_done(r, R, fw, tol, ori_tol):
     """Bat, grip position and rotation (and with R = 12 the face) within tolerance."""
     bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / BAT_WEIGHT
@@ -695,7 +695,7 @@ def _bat_frames(frames, desired, blends, shot, start, left, opts, face, out, buf
         eul_kept[i] = eul_l
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work, kept):
     """Frame f's right hand out of the right arm's reach (in :func:`_hand_frames`): both
     arms together from the first pass's left arm (the torso leans, and with the face kept
@@ -721,10 +721,12 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     arms = (l_off, l_eoff, right[1], right[2], rp)
     both_free = face_free if keep_face else l_free
     fw = FACE_LENGTH if keep_face else 0.0
+    n_face = kept[1]
+    n_tgt = (n_face[i, 0, 0], n_face[i, 0, 1], n_face[i, 0, 2])
+    n_last = (n_face[i, 1, 0], n_face[i, 1, 1], n_face[i, 1, 2])
     for _try in range(2):   # the grip before the face: without it if they clash
         pe, oe = both_arms_solve(prl, ppl, arms, (both_free, right[3]), (loc_l, loc_r, eul), (lo, hi),
-                                 (handle, (fw, v_at(kept[1][i], 0), v_at(kept[1][i], 1)), rel_p, rel_q),
-                                 tol, ori_tol, 40)
+                                 (handle, (fw, n_tgt, n_last), rel_p, rel_q), tol, ori_tol, 40)
         if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
             break
         fw = 0.0
