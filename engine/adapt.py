@@ -911,7 +911,6 @@ class Adapter:
         self.lhand = int(left.joints[-1])
         self.rhand = int(right.joints[-1])
         self.subtree_l = _subtree(self.parents, int(left.joints[0]))
-        self.subtree_r = _subtree(self.parents, int(right.joints[0]))
         # the right hand's source grip in the left hand's frame, per frame
         rel_pos, rel_rot = relative_pose(self.src_grot[:, self.lhand], self.src_gpos[:, self.lhand],
                                          self.src_grot[:, self.rhand], self.src_gpos[:, self.rhand])
