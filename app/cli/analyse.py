@@ -405,14 +405,8 @@ def write_components_strip(rig, shot, path: Path, part: str = "upper", cell: int
             "variance_3pcs": round(float(p.cumulative[min(2, p.num_components - 1)]), 4)}
 
 
-def _view_axes():
-    """Screen axes for a view from the off side, a little toward the bowler and above."""
-    eye = np.array([-1.0, 0.35, 0.75])
-    f = -eye / np.linalg.norm(eye)
-    right = np.cross(f, [0.0, 1.0, 0.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, f)
-    return right, up, f
+# The strip's camera looks from the off side, a little toward the bowler and above.
+VIEW_FROM = np.array([-1.0, 0.35, 0.75]) / np.linalg.norm([-1.0, 0.35, 0.75])
 
 
 def _render_strip_gl(rig, root, rot, cell: int):
@@ -431,9 +425,8 @@ def _render_strip_gl(rig, root, rot, cell: int):
 def _render_cells(rs, renderer, root, skin, cell: int):
     rows, cols = root.shape[:2]
     centre = root.reshape(-1, 3).mean(axis=0)
-    f = _view_axes()[2]
     target = np.array([centre[0], 88.0, centre[2]])
-    eye = target - f * 600.0
+    eye = target + VIEW_FROM * 600.0
     view = rs.look_at(eye, target)
     proj = rs.perspective(30.0, 1.0, 10.0, 5000.0)
     img = Image.new("RGB", (cols * cell, rows * cell + 46), (245, 245, 240))
