@@ -268,9 +268,8 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd") ->
     the bowler) with the wrist at 0 and 2 DOF: face angle vs the source, face_to_ball,
     contact and the ball's azimuth/elevation (Fig. 2.6's data), a summary per shot
     and over all shots."""
-    from app.cli.adapt import hit_summary
-    from engine.adapt import AdaptSettings, Adapter  # numba (0.25 s): when the command runs
     from engine import face
+    from engine.adapt import Adapter  # numba (0.25 s): when the command runs
 
     results = []
     pooled = {d: {"angle": [], "cos": []} for d in (0, 2)}
@@ -279,41 +278,12 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd") ->
         src = source_direction(rig, s)
         grid, summary = [], {}
         for dof in (0, 2):
-            settings = AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver)
-            rows = []
-            for dy in GRID_Y:
-                for dx in GRID_X:
-                    a = adapter.adapt(s.hit_point + np.array([dx, dy, 0.0]), settings)
-                    e = {"wrist_dof": dof, "offset_cm": [dx, dy, 0.0], "bat_error_cm": round(a.bat_error_cm, 4),
-                         **hit_summary(rig, s, a.global_rotations, a.global_positions, choice.BALL_START,
-                                       a.desired_hit_point)}
-                    # unwrapped around the source's direction, so a shot near +-180 deg stays continuous
-                    e["ball_azimuth_deg"] = round(float(src["ball_azimuth_deg"] + face.wrap_deg(
-                        e["ball_azimuth_deg"] - src["ball_azimuth_deg"])), 2)
-                    rows.append(e)
+            rows = _direction_rows(rig, s, adapter, src, dof, falloff, solver)
             grid += rows
             ok = [e for e in rows if e["bat_error_cm"] < REACHED_CM]
-            ang = np.array([e["face_angle_deg"] for e in ok])
-            cos = np.array([e["face_to_ball"] for e in ok])
-            pooled[dof]["angle"] += list(ang)
-            pooled[dof]["cos"] += list(cos)
-            off = [-e["offset_cm"][0] for e in ok]           # toward the off side
-            rho = spearman(off, [e["ball_azimuth_deg"] for e in ok]) if len(ok) > 2 else float("nan")
-            rows_up = 0
-            for dy in GRID_Y:
-                az = [e["ball_azimuth_deg"] for e in sorted((e for e in ok if e["offset_cm"][1] == dy),
-                                                              key=lambda e: -e["offset_cm"][0])]
-                rows_up += int(len(az) == len(GRID_X) and bool(np.all(np.diff(az) > 0)))
-            summary[f"dof{dof}"] = {
-                "reached": f"{len(ok)}/{len(rows)}",
-                "face_angle_median_deg": round(float(np.median(ang)), 2) if len(ang) else None,
-                "face_angle_max_deg": round(float(ang.max()), 2) if len(ang) else None,
-                "face_share": round(float(np.mean([e["contact"] == "face" for e in ok])), 3) if ok else None,
-                "turned_from_ball": int(np.sum(cos < 0)),
-                "spearman_azimuth_vs_off_offset": None if np.isnan(rho) else round(rho, 3),
-                "azimuth_moves_with_hit_point": bool(rho > 0),
-                "rows_strictly_increasing": f"{rows_up}/{len(GRID_Y)}",
-            }
+            pooled[dof]["angle"] += [e["face_angle_deg"] for e in ok]
+            pooled[dof]["cos"] += [e["face_to_ball"] for e in ok]
+            summary[f"dof{dof}"] = _direction_summary(rows, ok)
         results.append({"name": s.name, "source": src, **summary, "grid": grid})
     overall = {}
     for dof, p in pooled.items():
@@ -339,6 +309,50 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd") ->
         "settings": {"falloff": falloff, "solver": solver},
         "overall": overall,
         "shots": results,
+    }
+
+
+def _direction_rows(rig, shot, adapter, src: dict, dof: int, falloff: float, solver: str) -> list[dict]:
+    """One row per grid offset: the adapted hit's bat error, face and ball direction."""
+    from app.cli.adapt import hit_summary
+    from engine import face
+    from engine.adapt import AdaptSettings
+
+    settings = AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver)
+    rows = []
+    for dy in GRID_Y:
+        for dx in GRID_X:
+            a = adapter.adapt(shot.hit_point + np.array([dx, dy, 0.0]), settings)
+            e = {"wrist_dof": dof, "offset_cm": [dx, dy, 0.0], "bat_error_cm": round(a.bat_error_cm, 4),
+                 **hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START,
+                               a.desired_hit_point)}
+            # unwrapped around the source's direction, so a shot near +-180 deg stays continuous
+            e["ball_azimuth_deg"] = round(float(src["ball_azimuth_deg"] + face.wrap_deg(
+                e["ball_azimuth_deg"] - src["ball_azimuth_deg"])), 2)
+            rows.append(e)
+    return rows
+
+
+def _direction_summary(rows: list[dict], ok: list[dict]) -> dict:
+    """A shot's grid at one wrist DOF summed up: ``ok`` the rows reached."""
+    ang = np.array([e["face_angle_deg"] for e in ok])
+    cos = np.array([e["face_to_ball"] for e in ok])
+    off = [-e["offset_cm"][0] for e in ok]           # toward the off side
+    rho = spearman(off, [e["ball_azimuth_deg"] for e in ok]) if len(ok) > 2 else float("nan")
+    rows_up = 0
+    for dy in GRID_Y:
+        az = [e["ball_azimuth_deg"] for e in sorted((e for e in ok if e["offset_cm"][1] == dy),
+                                                      key=lambda e: -e["offset_cm"][0])]
+        rows_up += int(len(az) == len(GRID_X) and bool(np.all(np.diff(az) > 0)))
+    return {
+        "reached": f"{len(ok)}/{len(rows)}",
+        "face_angle_median_deg": round(float(np.median(ang)), 2) if len(ang) else None,
+        "face_angle_max_deg": round(float(ang.max()), 2) if len(ang) else None,
+        "face_share": round(float(np.mean([e["contact"] == "face" for e in ok])), 3) if ok else None,
+        "turned_from_ball": int(np.sum(cos < 0)),
+        "spearman_azimuth_vs_off_offset": None if np.isnan(rho) else round(rho, 3),
+        "azimuth_moves_with_hit_point": bool(rho > 0),
+        "rows_strictly_increasing": f"{rows_up}/{len(GRID_Y)}",
     }
 
 

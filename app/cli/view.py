@@ -50,21 +50,7 @@ def view(
     started = time.perf_counter()
     w, h = _parse_size(size)
     frames = number("--frames", frames, 0, MAX_FRAMES, integer=True)
-    player = None
-    if script is not None:
-        from app.viewer.script import ScriptPlayer, load_script
-        player = ScriptPlayer(load_script(script), str(script), frame_budget=frames or None)
-    if library is not None and not (library.is_file() or (library / "library.json").is_file()):
-        raise UserError(f"{library}: no shot library (a library.json, or a folder holding one: "
-                        f"hitpoint library init FOLDER writes it)")
-    _check_outputs(screenshot, stats)
-    if terrain is not None:
-        from app.cli.terrain_strip import load_terrain
-        load_terrain(terrain)       # a bad SPEC is refused before a window opens
-    from app import softgl
-    if software_gl not in softgl.MODES:
-        raise UserError(f"--software-gl {software_gl!r}: one of {', '.join(softgl.MODES)}")
-    softgl.set_mode(software_gl)
+    player = _checked_inputs(script, frames, library, screenshot, stats, terrain, software_gl)
     from app.viewer.loop import App
     from app.render.window import DisplayError
     try:
@@ -85,20 +71,47 @@ def view(
                 _refuse_failures(app)
         else:
             app.run()
-        if screenshot is not None:
-            from app.viewer.capture import write_png
-            write_png(screenshot, app.screenshot())
-        if stats is not None:
-            skip = min(10, app.frame_index // 10)
-            data = app.stats.write(stats, skip=skip, size=[w, h], headless=headless,
-                                   renderer=app.ctx.info.get("GL_RENDERER", "?"),
-                                   engine_solves=app.state.solve_count, errors=app.state.errors,
-                                   messages=[m for _, m in app.state.messages])
-            f = data["frame_ms"]
-            print(f"frames {data['frames']}: median {f['median']:.2f} ms, p95 {f['p95']:.2f}, "
-                  f"p99 {f['p99']:.2f}; first frame {data.get('time_to_first_frame_s', 0):.2f} s")
+        _write_outputs(app, screenshot, stats, (w, h), headless)
     finally:
         app.close()
+
+
+def _checked_inputs(script, frames, library, screenshot, stats, terrain, software_gl):
+    """Every input refused before a window opens (one line, exit 2); returns the script's
+    player (None without --script) and sets the software-GL profile."""
+    player = None
+    if script is not None:
+        from app.viewer.script import ScriptPlayer, load_script
+        player = ScriptPlayer(load_script(script), str(script), frame_budget=frames or None)
+    if library is not None and not (library.is_file() or (library / "library.json").is_file()):
+        raise UserError(f"{library}: no shot library (a library.json, or a folder holding one: "
+                        f"hitpoint library init FOLDER writes it)")
+    _check_outputs(screenshot, stats)
+    if terrain is not None:
+        from app.cli.terrain_strip import load_terrain
+        load_terrain(terrain)       # a bad SPEC is refused before a window opens
+    from app import softgl
+    if software_gl not in softgl.MODES:
+        raise UserError(f"--software-gl {software_gl!r}: one of {', '.join(softgl.MODES)}")
+    softgl.set_mode(software_gl)
+    return player
+
+
+def _write_outputs(app, screenshot, stats, size, headless) -> None:
+    """The --screenshot PNG and the --stats JSON (and its one-line summary)."""
+    if screenshot is not None:
+        from app.viewer.capture import write_png
+        write_png(screenshot, app.screenshot())
+    if stats is None:
+        return
+    skip = min(10, app.frame_index // 10)
+    data = app.stats.write(stats, skip=skip, size=list(size), headless=headless,
+                           renderer=app.ctx.info.get("GL_RENDERER", "?"),
+                           engine_solves=app.state.solve_count, errors=app.state.errors,
+                           messages=[m for _, m in app.state.messages])
+    f = data["frame_ms"]
+    print(f"frames {data['frames']}: median {f['median']:.2f} ms, p95 {f['p95']:.2f}, "
+          f"p99 {f['p99']:.2f}; first frame {data.get('time_to_first_frame_s', 0):.2f} s")
 
 
 def run_headless(app, frames: int, player=None) -> None:
