@@ -3,6 +3,8 @@ requests (``app.viewer.requests``: captures, reload, the PC pad's); the state is
 first), playback, overlays, readouts, the blend plot, the PC pad, messages."""
 from __future__ import annotations
 
+import math
+
 import time
 
 import numpy as np
@@ -241,14 +243,19 @@ def _overlay_section(settings: ViewerSettings) -> None:
             setattr(o, name, v)
 
 
+def _fmt(value: float, spec: str) -> str:
+    """A readout's number, or a dash while there is none (the solver still compiling)."""
+    return format(value, spec) if math.isfinite(value) else "-"
+
+
 def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
     imgui.separator_text("Readouts")
     r, t = state.readouts, state.timing.shown     # timings: quarter-second means
     if imgui.begin_table("readouts", 2, imgui.TableFlags_.sizing_stretch_prop):
-        rows = [(settings.solver, f"{r.us_per_frame:.1f} us a frame"),
-                ("bat error at hit frame", f"{r.bat_error_cm:.3f} cm"),
-                ("grip error (this frame)", f"{r.grip_error_cm:.2f} cm  {r.grip_error_deg:.1f} deg"),
-                ("grip error (max)", f"{r.max_grip_error_cm:.2f} cm"),
+        rows = [(settings.solver, f"{_fmt(r.us_per_frame, '.1f')} us a frame"),
+                ("bat error at hit frame", f"{_fmt(r.bat_error_cm, '.3f')} cm"),
+                ("grip error (this frame)", f"{_fmt(r.grip_error_cm, '.2f')} cm  {_fmt(r.grip_error_deg, '.1f')} deg"),
+                ("grip error (max)", f"{_fmt(r.max_grip_error_cm, '.2f')} cm"),
                 ("engine per frame", f"{t.get('engine', r.engine_ms):.2f} ms"),
                 ("whole-shot solve", f"{t.get('solve', r.solve_ms):.2f} ms"),
                 ("render", f"{t.get('render', r.render_ms):.2f} ms"),
