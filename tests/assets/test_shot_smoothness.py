@@ -51,3 +51,25 @@ def test_no_jerk_beyond_the_swing(shots, rig):
         f = int(np.argmax(np.where(window, 0.0, a)))
         assert a[f] <= swing, (f"{s.name}: bat acceleration {a[f]:.1f} cm/frame^2 at frame {f}, "
                                f"above the swing's {swing:.1f}")
+
+
+FACE_TURN_DEG_PER_FRAME = 60.0   # 1800 deg/s: faster than wrists roll a bat outside the swing
+
+
+@pytest.mark.xfail(strict=True, reason="known (2026-12-03): the authoring tool interpolates the bat's axis and face "
+                   "normal apart; where the keyed normal swings past the axis the face flips over in one frame "
+                   "(straight drive 169 deg at frame 22, cover drive 148, on drive 153); the fix (interpolating "
+                   "the bat's rotation, branch bat-slerp) needs the shots re-tuned")
+def test_the_face_never_flips_over_between_two_frames(shots, rig):
+    """Outside the swing through the ball the face turns less than FACE_TURN_DEG_PER_FRAME
+    from one frame to the next: a flip between two frames is a pop the viewer shows."""
+    from engine import quat
+    n_local = np.asarray(rig.bat["face_normal"], float)
+    worst = {}
+    for s in shots:
+        g = s.fk[0][:, rig.bat_joint]
+        n = quat.rotate(g, np.broadcast_to(n_local, g.shape[:-1] + (3,)))
+        turn = np.degrees(np.arccos(np.clip((n[1:] * n[:-1]).sum(-1), -1.0, 1.0)))
+        outside = np.abs(np.arange(len(turn)) - s.hit_frame) > HIT_WINDOW
+        worst[s.name] = round(float(turn[outside].max()), 1)
+    assert max(worst.values()) <= FACE_TURN_DEG_PER_FRAME, worst
