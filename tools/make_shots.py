@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from engine import bvh
+from engine import bvh, cleanup, quat
 from engine.library import Shot
 from engine.rig import assets_dir, default_rig
 from engine.skeleton import Clip, clip_fk
@@ -124,11 +124,44 @@ def build(name: str, rig=None, noise: bool = True):
     T["roll_weight"] = 0.05 + 200.0 * near_hit + 200.0 * (1.0 - envelope(len(times), 6))
     T["roll_weight"][n_pre] = np.inf          # the face meets the ball as keyed
     root, local, info = solver.solve(T)
-    clip = Clip(root, local, FPS)
-    return rig.skeleton, clip, n_pre, description, {"tracks": tr, **info}
+    clip, clamped = into_limits(rig, Clip(root, local, FPS))
+    return rig.skeleton, clip, n_pre, description, {"tracks": tr, "clamped_deg": clamped, **info}
 
 
-def report(rig, name, clip, hit):
+def into_limits(rig, clip: Clip) -> tuple[Clip, float]:
+    """(the solved clip with every joint angle clamped into the rig's limits, the largest
+    clamp in degrees); the right hand is then put back on the handle where the clamp moved
+    it (engine.cleanup, which keeps the limits). The solver's costs leave a few frames a
+    few degrees out where the keyed bat cannot be held otherwise."""
+    e = chk.dof_euler(rig, clip.local_rotations)
+    lo, hi = (np.where(rig.dof, rig.limits[..., k], 0.0) for k in (0, 1))
+    out = chk._outside(e, lo, hi) > 1e-6      # not the float noise of a locked axis
+    near_lo = np.abs((e - lo + 180.0) % 360.0 - 180.0) <= np.abs((e - hi + 180.0) % 360.0 - 180.0)
+    clamped = np.where(out, np.where(near_lo, lo, hi), e)
+    largest = float(np.abs((clamped - e + 180.0) % 360.0 - 180.0).max())
+    e = clamped
+    local = clip.local_rotations.copy()
+    moved = out.any(-1)
+    moved[:, 0] = False
+    local[moved] = quat.from_euler(e[moved], "ZYX")
+    fixed = Clip(clip.root_positions.copy(), local.copy(), clip.fps)
+    src_rot, src_pos = clip_fk(rig.skeleton, clip)
+    have, want = chk.right_in_left(rig, *clip_fk(rig.skeleton, fixed)), chk.right_in_left(rig, src_rot, src_pos)
+    off = (np.linalg.norm(have[0] - want[0], axis=-1) > 0.3) | (quat.angle_between(have[1], want[1]) > 1.5)
+    if off.any():
+        # the re-grip solves every frame (its elbows may differ): kept where the grip was lost
+        cleanup.reattach_right_hand(rig, rig.skeleton, fixed, src_rot, src_pos)
+        # ... and where its elbow does not go through the trunk
+        spine = ("Hips", "Spine", "Spine1", "Spine2", "Neck")
+        g_pos = clip_fk(rig.skeleton, fixed)[1]
+        inside = chk.distance_to_polyline(g_pos[:, rig.skeleton.index("RightForeArm")],
+                                          g_pos[:, [rig.skeleton.index(n) for n in spine]]) < chk.TRUNK_INSIDE_CM
+        fixed.local_rotations[~off | inside] = local[~off | inside]
+    return fixed, largest
+
+
+
+def report(rig, name, clip, hit, clamped_deg=0.0):
     g_rot, g_pos = clip_fk(rig.skeleton, clip)
     sk = rig.skeleton
     bat = g_pos[:, rig.bat_joint]
@@ -138,7 +171,8 @@ def report(rig, name, clip, hit):
     rpos, _ = chk.right_in_left(rig, g_rot, g_pos)
     print(f"{name}: {clip.num_frames} frames, hit {hit}, hit point {np.round(bat[hit], 1)}, "
           f"bat speed at hit {speed[hit]:.1f} m/s (max {speed.max():.1f} at {int(speed.argmax())})")
-    print(f"  right grip error max {gerr.max():.2f} cm, right-in-left std {rpos.std(0).max():.2f}")
+    print(f"  right grip error max {gerr.max():.2f} cm, right-in-left std {rpos.std(0).max():.2f}, "
+          f"largest clamp into the limits {clamped_deg:.1f} deg")
     for foot in ("LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase"):
         p = g_pos[:, sk.index(foot)]
         print(f"  {foot}: min y {p[:, 1].min():.2f}, drift {chk.foot_drift(p, FPS):.2f} cm, "
@@ -170,8 +204,8 @@ def main(argv=None):
     names = [a.only] if a.only else list(SHOTS)
     manifest = []
     for name in names:
-        skel, clip, hit, desc, _ = build(name, rig)
-        report(rig, name, clip, hit)
+        skel, clip, hit, desc, info = build(name, rig)
+        report(rig, name, clip, hit, info["clamped_deg"])
         if not a.check:
             # engine.bvh.write, but with the Euler branch the rig's DOFs mean
             # (an elbow flexed past 90 degrees stays a pure y rotation)

@@ -20,7 +20,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-from .shots_ik import rot_axis, unit, perp, ypr
+from engine import quat
+
+from .shots_ik import perp, rot_axis, to_q, unit, ypr
 
 FPS = 30.0
 ANKLE_ABOVE_TOE = np.array([0.0, -6.0, 13.0])   # ToeBase offset under Foot (rig)
@@ -90,7 +92,43 @@ def tracks(keys: list, times: np.ndarray, solver=None) -> dict:
         return shoulder_positions(solver, b["hips_pos"], ypr(*b["hips_ypr"]), ypr(*b["chest_ypr"]))
 
     keys = resolve_bat_keys(keys, shoulders)
-    return {c: sample(keys, c, times) for c in VECTOR if any(c in k for _, k in keys)}
+    out = {c: sample(keys, c, times) for c in VECTOR if any(c in k for _, k in keys)}
+    # between keys where the face normal, interpolated apart from the axis, passes close
+    # to it (the face would flip over in a frame), the bat turns as one rotation instead
+    face = unit(perp(out["bat_n"], unit(out["bat_d"])))
+    turn = np.degrees(np.arccos(np.clip((face[1:] * face[:-1]).sum(-1), -1.0, 1.0)))     # (F-1,)
+    ts = np.array([t for t, k in keys if "bat_d" in k])
+    seg = np.clip(np.searchsorted(ts, times, side="right") - 1, 0, len(ts) - 2)
+    bad = np.isin(seg, seg[1:][(turn > FACE_TURN_PER_FRAME) & (times[1:] < 0.0)])
+    if bad.any():
+        rot = sample_bat_rotation(keys, times)
+        out["bat_d"][bad], out["bat_n"][bad] = -rot[bad, :, 2], rot[bad, :, 1]
+    return out
+
+
+FACE_TURN_PER_FRAME = 75.0   # deg: a segment whose face turns faster turns as one rotation
+
+
+def sample_bat_rotation(keys: list, times: np.ndarray) -> np.ndarray:
+    """The bat's rotation ``(F, 3, 3)`` (bat_frame) between its keys, interpolated as one
+    rotation: its quaternion's components by a monotone cubic, normalised. The axis and
+    the face normal interpolated apart can pass through a normal along the axis, where
+    the face flips over in one frame (the straight drive's turned 170 degrees between two
+    frames at the top of its backlift)."""
+    pts = [(t, bat_frame(np.asarray(k["bat_d"], float), np.asarray(k["bat_n"], float)))
+           for t, k in keys if "bat_d" in k]
+    ts = np.array([t for t, _ in pts])
+    if len(pts) < 2 or np.any(np.diff(ts) <= 0):
+        raise ValueError(f"bat keys must lie at increasing times ({ts})")
+    q = to_q(np.stack([m for _, m in pts]))
+    for i in range(1, len(q)):             # the shorter way round from each key to the next
+        if q[i] @ q[i - 1] < 0.0:
+            q[i] = -q[i]
+    out = PchipInterpolator(ts, q, axis=0)(np.clip(times, ts[0], ts[-1]))
+    out[times <= ts[0]] = q[0]
+    out[times >= ts[-1]] = q[-1]
+    return quat.to_matrix(out / np.linalg.norm(out, axis=-1, keepdims=True))
+
 
 
 def targets(tr: dict) -> dict:

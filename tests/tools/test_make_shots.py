@@ -19,3 +19,26 @@ def test_a_stance_with_a_locked_arm_is_refused(monkeypatch):
     monkeypatch.setattr(make_shots, "STANCE", locked)
     with pytest.raises(ValueError, match="STANCE: left wrist 53.5 cm"):
         make_shots.shared_reach(PoseSolver(default_rig()))
+
+
+def test_into_limits_clamps_and_puts_the_right_hand_back():
+    """A right wrist pushed 10 deg past its limit comes back to the limit; the right hand,
+    moved off the handle by that clamp, is put back on it; the other frames stay."""
+    from engine import quat
+    from engine.library import find_shot, load_library
+    from engine.skeleton import clip_fk
+    from tools import shots_check as chk
+    rig = default_rig()
+    shot = find_shot(load_library(rig=rig), "cover_drive")
+    clip = shot.clip.copy()
+    j, f = rig.skeleton.index("RightHand"), 40
+    e = chk.dof_euler(rig, clip.local_rotations)[f, j]
+    e[1] = rig.limits[j, 1, 1] + 10.0                       # y past its upper limit
+    clip.local_rotations[f, j] = quat.from_euler(e, "ZYX")
+    fixed, largest = make_shots.into_limits(rig, clip)
+    assert 9.5 < largest < 10.5
+    assert chk.limit_violations(rig, fixed.local_rotations) == []
+    have, want = chk.right_in_left(rig, *clip_fk(rig.skeleton, fixed)), chk.right_in_left(rig, *shot.fk)
+    assert np.linalg.norm(have[0] - want[0], axis=-1).max() < 0.3
+    others = np.arange(clip.num_frames) != f
+    assert np.array_equal(fixed.local_rotations[others], clip.local_rotations[others])
