@@ -12,9 +12,9 @@ from tests.conftest import ROOT
 HITPOINT = [sys.executable, "-c", "from app.cli import main; main()"]
 
 
-def hitpoint(*args, timeout=120):
+def hitpoint(*args, timeout=120, cwd=ROOT):
     env = dict(os.environ)
-    return subprocess.run(HITPOINT + list(args), cwd=ROOT, env=env, capture_output=True, text=True,
+    return subprocess.run(HITPOINT + list(args), cwd=cwd, env=env, capture_output=True, text=True,
                           timeout=timeout)
 
 
@@ -29,8 +29,10 @@ def test_headless_run_writes_screenshot_and_stats(tmp_path):
     ]))
     png, stats = tmp_path / "shot.png", tmp_path / "stats.json"
     r = hitpoint("view", "--headless", "--frames", "24", "--script", str(script), "--screenshot", str(png),
-                 "--stats", str(stats), "--size", "640", "400")
+                 "--stats", str(stats), "--size", "640", "400", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
+    # F12 writes its screenshot to the working folder (here, not the checkout)
+    assert len(list(tmp_path.glob("hitpoint_*.png"))) == 1
     from PIL import Image
     assert Image.open(png).size == (640, 400)
     data = json.loads(stats.read_text())
