@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -27,7 +28,7 @@ from .fk_nb import chain_fk, tree_fk
 from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations, relative_pose
-from .step_nb import MAX_STEP, Chain, hinge_axis, scratch, with_limits
+from .step_nb import MAX_STEP, NO, Chain, hinge_axis, lm_eval, lm_loop, lm_parts, scratch, with_limits
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
@@ -39,6 +40,7 @@ FACE_ITER = 30          # Newton steps at most (crawling along a limit: as near 
 FACES = ("keep", "free")
 NO_FACE = (0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # both_arms_solve's face term, off
 BAT_WEIGHT = 10.0       # the two-arm solve: the bat on the ball matters most
+END_LM = (0.5, 0.05, 1e4, NO)  # the grip, face and two-arm solves' damping: start, least, cap; an undo does not end
 END_ROWS = np.int64(6)  # rows of the grip and face solves (an int64, not a literal: one compiled step)
 SOLVERS = ("ccd", "dls")
 TWISTS = ("follow", "lead")
@@ -316,44 +318,69 @@ def _end_columns(prot, g_rot, g_pos, euler, free, weight, eff, goal, cols, dofs)
     return m
 
 
+class EndProblem(NamedTuple):
+    """The chain's end onto ``goal`` (:func:`_end_residual`): the grip and face solves'
+    problem of :func:`engine.step_nb.lm_loop`, stepped by :func:`lsq_apply` on
+    :func:`_end_columns`. State (residual norm, effector (3,), position error cm, turn
+    error)."""
+    prot: tuple         # (4,) the chain root's parent's global rotation
+    ppos: tuple         # (3,) and position, cm
+    offsets: np.ndarray  # (n,3) the chain joints' local translations, cm
+    eff_off: np.ndarray  # (3,) the effector in the last joint's frame, cm
+    local: np.ndarray   # (n,4) the chain's local rotations, in place
+    euler: np.ndarray   # (n,3) their Euler angles, radians, in place
+    free: np.ndarray    # (n,3) bool: the Euler columns a step may move
+    weight: np.ndarray  # (n,) 1 / stiffness (0: held)
+    lo: np.ndarray      # (n,3) radians
+    hi: np.ndarray      # (n,3) radians
+    goal: tuple         # as _end_residual's
+    tol: float          # cm
+    ori_tol: float      # the turn error's tolerance
+    work: tuple         # (g_rot, g_pos, cols (3n,7), dofs, A (6,6), x, r, bak_l, bak_e)
+
+
+def _end_save(problem):
+    n = problem.local.shape[0]
+    problem.work[7][:n] = problem.local
+    problem.work[8][:n] = problem.euler
+
+
+def _end_restore(problem):
+    n = problem.local.shape[0]
+    problem.local[:] = problem.work[7][:n]
+    problem.euler[:] = problem.work[8][:n]
+
+
+def _end_step(problem, state, damping):
+    g_rot, g_pos, cols, dofs, A, x, r, _, _ = problem.work
+    m = _end_columns(problem.prot, g_rot, g_pos, problem.euler, problem.free, problem.weight, state[1], problem.goal,
+                     cols, dofs)
+    lsq_apply(cols, dofs, m, END_ROWS, r, problem.euler, problem.lo, problem.hi, damping, MAX_STEP, A, x)
+    put_free_locals(problem.local, problem.euler, problem.free)
+
+
+def _end_eval(problem):
+    g_rot, g_pos = problem.work[0], problem.work[1]
+    eff = chain_fk(problem.prot, problem.ppos, problem.offsets, problem.eff_off, problem.local, g_rot, g_pos)
+    res, pe, oe = _end_residual(problem.goal, eff, q_at(g_rot, problem.local.shape[0] - 1), problem.work[6])
+    return res, eff, pe, oe
+
+
+def _end_done(problem, state):
+    # & not `and`: a short circuit in an inlined part warns (NumbaIRAssumptionWarning)
+    return (state[2] < problem.tol) & (state[3] < problem.ori_tol)
+
+
+lm_parts(EndProblem, _end_save, _end_restore, _end_step, _end_eval, _end_done)
+
+
 @njit(cache=True)
-def _end_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, goal, tol, ori_tol,
-               max_iter, stall, work):
-    """Damped Newton (Levenberg-Marquardt) on :func:`_end_residual` from the current pose;
-    a step that does not help is undone and damped harder; stops when both errors are in
-    tolerance or a step gains less than ``stall`` of the residual (held by a limit).
-    work = (g_rot, g_pos, cols (3n,7), dofs, A (6,6), x, r, bak_l, bak_e).
-    Returns (position error cm, turn error)."""
-    g_rot, g_pos, cols, dofs, A, x, r, bak_l, bak_e = work
-    n = offsets.shape[0]
-    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-    res, pe, oe = _end_residual(goal, eff, q_at(g_rot, n - 1), r)
-    lam = 0.5
-    for _ in range(max_iter):
-        if pe < tol and oe < ori_tol:
-            break
-        bak_l[:n] = local
-        bak_e[:n] = euler
-        m = _end_columns(prot, g_rot, g_pos, euler, free, weight, eff, goal, cols, dofs)
-        lsq_apply(cols, dofs, m, END_ROWS, r, euler, lo, hi, lam, MAX_STEP, A, x)
-        put_free_locals(local, euler, free)
-        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-        res2, pe2, oe2 = _end_residual(goal, eff2, q_at(g_rot, n - 1), r)
-        if not res2 < res:
-            local[:] = bak_l[:n]
-            euler[:] = bak_e[:n]
-            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-            res, pe, oe = _end_residual(goal, eff, q_at(g_rot, n - 1), r)
-            lam *= 4.0
-            if lam > 1e4:
-                break
-            continue
-        gain = res - res2
-        eff = eff2
-        res, pe, oe = res2, pe2, oe2
-        lam = max(0.05, lam * 0.5)
-        if gain < stall * res:       # stalled against a limit: as near as it gets
-            break
+def _end_solve(problem, max_iter, stall):
+    """Damped Newton (Levenberg-Marquardt, :func:`engine.step_nb.lm_loop`) on
+    :func:`_end_residual` from the current pose; a step that does not help is undone and
+    damped harder; stops when both errors are in tolerance or a step gains less than
+    ``stall`` of the residual (held by a limit). Returns (position error cm, turn error)."""
+    (_, _, pe, oe), _ = lm_loop(problem, lm_eval(problem), END_LM, (max_iter, 0.0, stall, NO))
     return pe, oe
 
 
@@ -362,13 +389,13 @@ def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_
                tol, ori_tol, max_iter, work):
     """Damped Newton on position and orientation of the chain's last joint
     from the current pose (after the position solve and the twist/hand finish
-    could not get the orientation); work as :func:`_end_solve`'s. Returns
+    could not get the orientation); work as :class:`EndProblem`'s. Returns
     (position error, angle error)."""
     goal = (False, (target_pos[0], target_pos[1], target_pos[2]),
             (target_rot[0], target_rot[1], target_rot[2], target_rot[3]), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
             GRIP_LENGTH)
-    return _end_solve(prot, ppos, offsets, eff_off, local, euler, free, np.ones(offsets.shape[0]), lo, hi,
-                      goal, tol, ori_tol, max_iter, 1e-3, work)
+    return _end_solve(EndProblem(prot, ppos, offsets, eff_off, local, euler, free, np.ones(offsets.shape[0]), lo, hi,
+                                 goal, tol, ori_tol, work), max_iter, 1e-3)
 
 
 @njit(cache=True)
@@ -378,12 +405,12 @@ def face_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi,
     ``n_last`` (in the last chain joint's frame) turned onto the world ``target_n``,
     from the current (position-solved) pose, by the free joints with a weight
     (1 / stiffness; 0: held); the roll joints, which position-only CCD leaves alone,
-    turn the face back. work as :func:`_end_solve`'s. Returns (position error cm,
+    turn the face back. work as :class:`EndProblem`'s. Returns (position error cm,
     face error: the chord between the unit normals, ~rad)."""
     goal = (True, (target_pos[0], target_pos[1], target_pos[2]), (1.0, 0.0, 0.0, 0.0),
             (target_n[0], target_n[1], target_n[2]), (n_last[0], n_last[1], n_last[2]), FACE_LENGTH)
-    return _end_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, goal, tol, FACE_TOL,
-                      max_iter, 1e-4, work)
+    return _end_solve(EndProblem(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, goal, tol,
+                                 FACE_TOL, work), max_iter, 1e-4)
 
 
 @njit(cache=True)
@@ -514,14 +541,73 @@ def _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols,
     return m
 
 
+class BothArmsProblem(NamedTuple):
+    """Both arm chains onto the bat's handle and the right hand's grip (and the face):
+    :func:`both_arms_solve`'s problem of :func:`engine.step_nb.lm_loop`, stepped by
+    :func:`lsq_apply` on :func:`_both_columns`. State (residual norm, bat (3,), grip
+    target position (3,))."""
+    prot: tuple         # (4,) the left chain root's parent's global rotation
+    ppos: tuple         # (3,) and position, cm
+    arms: tuple         # as both_fk's
+    free: tuple         # (left (nl,3), right (nr,3)) bool
+    pose: tuple         # (left local (nl,4), right local (nr,4), Euler angles of both (nl+nr,3)), in place
+    halves: tuple       # the Euler angles' rows of the left arm, of the right (views of pose's)
+    limits: tuple       # (lo, hi) (nl+nr,3) radians
+    goal: tuple         # as _both_residual's
+    rows: int           # rows solved: 12 with the face, else 9
+    tols: tuple         # (tol cm, orientation tol rad)
+    bufs: tuple         # both_fk's
+    work: tuple         # (cols (3(nl+nr),13), dofs, A (12,12), x (12,), r (12,))
+    backup: tuple       # copies of pose's arrays
+
+
 @njit(cache=True, inline='always')
-def _both_done(r, R, fw, tol, ori_tol):
-    """Bat, grip position and rotation (and with R = 12 the face) within tolerance."""
+def _copy3(src, dst):
+    """Three arrays' contents ``src`` into the arrays ``dst`` of the same shapes."""
+    a, b, c = dst
+    a[:] = src[0]
+    b[:] = src[1]
+    c[:] = src[2]
+
+
+def _both_save(problem):
+    _copy3(problem.pose, problem.backup)
+
+
+def _both_restore(problem):
+    _copy3(problem.backup, problem.pose)
+
+
+def _both_step(problem, state, damping):
+    cols, dofs, A, x, r = problem.work
+    eul_l, eul_r = problem.halves
+    m = _both_columns(problem.prot, problem.arms[4], problem.free, problem.bufs, eul_l, eul_r, state[1], state[2],
+                      problem.goal[1], r, cols, dofs)
+    lsq_apply(cols, dofs, m, problem.rows, r, problem.pose[2], problem.limits[0], problem.limits[1], damping,
+              MAX_STEP, A, x)
+    put_free_locals(problem.pose[0], eul_l, problem.free[0])
+    put_free_locals(problem.pose[1], eul_r, problem.free[1])
+
+
+def _both_eval(problem):
+    loc_l, loc_r, _ = problem.pose
+    bat, t_pos, res = _both_residual(problem.prot, problem.ppos, problem.arms, loc_l, loc_r, problem.bufs,
+                                     problem.goal, problem.work[4])
+    return res, bat, t_pos
+
+
+def _both_done(problem, state):
+    """Bat, grip position and rotation (and with 12 rows the face) within tolerance."""
+    r, fw = problem.work[4], problem.goal[1][0]
+    tol, ori_tol = problem.tols
     bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / BAT_WEIGHT
     pos_e = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
     ori_e = math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / GRIP_LENGTH
     face_e = math.sqrt(r[9] * r[9] + r[10] * r[10] + r[11] * r[11]) / max(fw, 1e-300)
-    return bat_e < tol and pos_e < tol and ori_e < ori_tol and (R == 9 or face_e < FACE_TOL)
+    return (bat_e < tol) & (pos_e < tol) & (ori_e < ori_tol) & ((problem.rows == 9) | (face_e < FACE_TOL))
+
+
+lm_parts(BothArmsProblem, _both_save, _both_restore, _both_step, _both_eval, _both_done)
 
 
 @njit(cache=True)
@@ -535,51 +621,17 @@ def both_arms_solve(prot, ppos, arms, free, pose, limits, goal, tol, ori_tol, ma
     (nl+nr,3), left first), limits = (lo, hi) of those angles; goal = (handle, face,
     rel_p, rel_q). Returns the grip's (position cm, angle rad) error."""
     loc_l, loc_r, eul = pose
-    lo, hi = limits
-    rp = arms[4]
-    face = goal[1]
     nl = loc_l.shape[0]
     nr = loc_r.shape[0]
-    eul_l = eul[:nl]
-    eul_r = eul[nl:]
     bufs = (np.empty((nl, 4)), np.empty((nl, 3)), np.empty((nr, 4)), np.empty((nr, 3)))
-    R = 12 if face[0] > 0.0 else 9     # rows solved: the face's three only when it is kept
     cols = np.zeros((3 * (nl + nr), 13))
     cols[:, 12] = 1.0                  # no stiffness weights
-    dofs = np.empty((3 * (nl + nr), 2), np.int64)
-    A = np.empty((12, 12))
-    x = np.empty(12)
-    r = np.empty(12)
-    bl = np.empty((nl, 4))
-    br = np.empty((nr, 4))
-    be = np.empty((nl + nr, 3))
-    bat, t_pos, res = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
-    lam = 0.5
-    for _ in range(max_iter):
-        if _both_done(r, R, face[0], tol, ori_tol):
-            break
-        bl[:] = loc_l
-        br[:] = loc_r
-        be[:] = eul
-        m = _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols, dofs)
-        lsq_apply(cols, dofs, m, R, r, eul, lo, hi, lam, MAX_STEP, A, x)
-        put_free_locals(loc_l, eul_l, free[0])
-        put_free_locals(loc_r, eul_r, free[1])
-        bat2, t_pos2, res2 = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
-        if not res2 < res:
-            loc_l[:] = bl
-            loc_r[:] = br
-            eul[:] = be
-            bat, t_pos, res = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
-            lam *= 4.0
-            if lam > 1e4:
-                break
-            continue
-        gain = res - res2
-        bat, t_pos, res = bat2, t_pos2, res2
-        lam = max(0.05, lam * 0.5)
-        if gain < 1e-3 * res:
-            break
+    work = (cols, np.empty((3 * (nl + nr), 2), np.int64), np.empty((12, 12)), np.empty(12), np.empty(12))
+    problem = BothArmsProblem(prot, ppos, arms, free, pose, (eul[:nl], eul[nl:]), limits, goal,
+                              12 if goal[1][0] > 0.0 else 9, (tol, ori_tol), bufs, work,
+                              (np.empty((nl, 4)), np.empty((nr, 4)), np.empty((nl + nr, 3))))
+    lm_loop(problem, lm_eval(problem), END_LM, (max_iter, 0.0, 1e-3, NO))
+    r = work[4]
     return math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5]), math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / GRIP_LENGTH
 
 

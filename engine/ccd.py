@@ -27,7 +27,7 @@ from numba import njit
 from .fk_nb import chain_fk
 from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx,
                       clamp_angle, into_range, other_branch, outside, pick_branch, q_at, v_at, q_put, wrap)
-from .step_nb import YES, Chain, hinge_axis, lm_position, scratch
+from .step_nb import YES, Chain, PositionProblem, hinge_axis, lm_loop, scratch
 from .euler import within
 
 
@@ -125,8 +125,8 @@ def ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s)
             break
         if do_polish and err > 0.5 * start_err:
             # Newton (lightly damped) steps from a CCD pose that stalled near the handle
-            eff, err, _ = lm_position(prot, ppos, ch, local, euler, handle, eff, err, s, (0.01, 0.01, 0.0, YES),
-                                      (POLISH_STEPS, tol, 0.0, 0.0, YES))
+            (err, eff), _ = lm_loop(PositionProblem(prot, ppos, ch, local, euler, handle, s, tol), (err, eff),
+                                    (0.01, 0.01, 0.0, YES), (POLISH_STEPS, 0.0, 0.0, YES))
             if err < tol:
                 break
         if start_err - err < max(_STALL, _STALL_REL * err):

@@ -11,9 +11,7 @@ import numpy as np
 from numba import njit
 
 from .ccd import ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, limit_euler
-from .fk_nb import chain_fk
-from .quat_nb import vnorm, vsub
-from .step_nb import NO, Chain, lm_position, scratch
+from .step_nb import NO, Chain, PositionProblem, lm_eval, lm_loop, scratch
 
 DAMPING = 1.0           # cm
 
@@ -29,12 +27,9 @@ def dls_frame(prot, ppos, ch, local, euler, damping, handle, tol, max_iter, s):
     """Solve one frame in place (local (n,4), euler (n,3) radians) by damped Newton
     steps weighted by ``ch.weight (n,)`` = 1 / stiffness; an overshoot (or a limit in
     the way) is undone and damped harder. Returns (error cm, iterations)."""
-    eff = chain_fk(prot, ppos, ch.offsets, ch.eff_off, local, s.g_rot, s.g_pos)
-    err = vnorm(vsub(eff, handle))
-    if not err >= tol:
-        return err, 0
-    _, err, it = lm_position(prot, ppos, ch, local, euler, handle, eff, err, s,
-                             (damping, damping, 1e4 * (damping + 1.0), NO), (max_iter, tol, _STALL, _STALL_REL, NO))
+    problem = PositionProblem(prot, ppos, ch, local, euler, handle, s, tol)
+    (err, _), it = lm_loop(problem, lm_eval(problem), (damping, damping, 1e4 * (damping + 1.0), NO),
+                           (max_iter, _STALL, _STALL_REL, NO))
     return err, it
 
 

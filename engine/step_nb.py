@@ -5,9 +5,10 @@ A chain is a :data:`Chain` named tuple of flat arrays (numba takes named tuples,
 kernel takes one argument for the chain instead of eight); :data:`Scratch` holds the
 work buffers of one solve, allocated once per batch by :func:`scratch`.
 
-:func:`lm_position` is the loop of the CCD finish (``engine.ccd``) and of the DLS
-solver (``engine.dls``): steps from the current pose, a step that does not get closer
-undone and damped harder.
+:func:`lm_loop` is the one Levenberg-Marquardt loop: steps from the current pose, a
+step that does not lower the cost undone and damped harder. Its problems:
+:class:`PositionProblem` (the CCD finish in ``engine.ccd`` and the DLS solver in
+``engine.dls``), and in ``engine.adapt`` the chain's end (grip and face) and the two arms.
 
 Named tuples from Python are typed slowly (~1.3 us for 8 arrays): batch kernels take the
 chain as a plain tuple and rebuild it (``Chain(*t)``); a field read inside a loop costs
@@ -15,11 +16,14 @@ a reference count, so loops read the fields into locals first.
 """
 from __future__ import annotations
 
+import inspect
 import math
 from collections import namedtuple
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from .fk_nb import chain_fk
 from .quat_nb import clamp_angle, cross, from_euler_zyx, q_at, q_put, qmul, qrot, v_at, vnorm, vsub
@@ -143,43 +147,134 @@ def jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, 
             q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
 
 
+# --------------------------------------------------------------------------
+# One Levenberg-Marquardt loop. Each problem (position here, the chain's end and the two
+# arms in engine.adapt) is a typing.NamedTuple class of its arrays and tolerances; its
+# parts are the generic functions below, compiled for it by its type (numba overloads
+# picked at compile time). Passing compiled functions as arguments instead would put the
+# dispatchers' per-process ids into the cache key (numba #6264, #2956): every run a miss.
+
+def lm_save(problem):
+    """Keep what a step changes (the problem's pose), so :func:`lm_restore` can undo it."""
+
+
+def lm_restore(problem):
+    """Put back the pose :func:`lm_save` kept, bit for bit."""
+
+
+def lm_step(problem, state, damping):
+    """One damped least-squares step from ``state`` (what :func:`lm_eval` returned for
+    the current pose) with ``damping``, in place on the problem's pose."""
+
+
+def lm_eval(problem):
+    """The current pose's state: a tuple whose first item is the cost the loop lowers
+    (what a step must make smaller to be kept), the rest what the problem's step needs.
+    Also refreshes the problem's buffers (globals, residual) from the pose."""
+
+
+def lm_done(problem, state):
+    """The problem's tolerances are met at ``state``."""
+
+
+def lm_parts(cls, save, restore, step, evaluate, done):
+    """Make ``cls`` (a typing.NamedTuple class) a problem of :func:`lm_loop`: its parts
+    are plain Python functions with the parameters of :func:`lm_save` ... :func:`lm_done`,
+    compiled inline into the loop for problems of that type (so no short-circuit
+    ``and``/``or`` in them: numba's inliner warns of its phi nodes; use ``&``/``|``)."""
+    for stub, impl in ((lm_save, save), (lm_restore, restore), (lm_step, step), (lm_eval, evaluate),
+                       (lm_done, done)):
+        _overload_for(stub, cls, impl)
+
+
+def _overload_for(stub, cls, impl):
+    """``impl`` as ``stub``'s implementation when its first argument is a ``cls``."""
+    def typer(problem, *rest):
+        if isinstance(problem, types.BaseNamedTuple) and problem.instance_class is cls:
+            return impl
+        return None
+    # numba checks that the typing function's parameters are the implementation's
+    typer.__signature__ = inspect.signature(stub)
+    overload(stub, inline='always')(typer)
+
+
 @njit(cache=True)
-def lm_position(prot, ppos, ch, local, euler, handle, eff, err, s, lm, stop):
-    """Damped Newton steps (:func:`jacobian_step`) taking the effector, now at ``eff``
-    (``err`` from ``handle``), onto ``handle``, in place; a step that does not get
-    closer is undone. Returns (effector, error, steps taken).
+def lm_loop(problem, state, lm, stop):
+    """Damped Newton (Levenberg-Marquardt) steps on ``problem`` from its current pose,
+    whose :func:`lm_eval` is ``state``; a step that does not lower the cost
+    (``state[0]``) is undone. Returns (final state, steps taken, undone ones included).
 
     ``lm`` = (damping, least damping, damping cap, undo ends): after an undo the damping
     is multiplied by 4 (and the loop ends above the cap, or at once with ``undo ends``),
-    after a success halved down to the least. ``stop`` = (steps, tol, stall, rel stall,
-    halving): ends within tol, or when a success gains less than max(stall, rel stall *
-    error), or with ``halving`` does not halve the error."""
+    after a success halved down to the least. ``stop`` = (steps, stall, rel stall,
+    halving): ends when :func:`lm_done`, or when a success gains less than max(stall,
+    rel stall * cost), or with ``halving`` does not halve the cost."""
     lam, lam_min, lam_cap, undo_ends = lm
-    steps, tol, stall, stall_rel, halving = stop
-    n = local.shape[0]
-    offsets, eff_off, g_rot, g_pos, bak_l, bak_e = ch.offsets, ch.eff_off, s.g_rot, s.g_pos, s.bak_l, s.bak_e
-    free, lo, hi, weight, cols, dofs = ch.free, ch.lo, ch.hi, ch.weight, s.cols, s.dofs
+    steps, stall, stall_rel, halving = stop
     it = 0
+    if lm_done(problem, state):
+        return state, it
     while it < steps:
         it += 1
-        bak_l[:n] = local
-        bak_e[:n] = euler
-        jacobian_step(prot, local, euler, free, lo, hi, weight, handle, eff, g_rot, g_pos, cols, dofs, lam, MAX_STEP)
-        eff2 = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-        err2 = vnorm(vsub(eff2, handle))
-        if not err2 < err:
-            local[:] = bak_l[:n]
-            euler[:] = bak_e[:n]
-            eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        lm_save(problem)
+        lm_step(problem, state, lam)
+        trial = lm_eval(problem)
+        if not trial[0] < state[0]:
+            lm_restore(problem)
+            state = lm_eval(problem)    # the same state again, and the buffers it refreshes
             lam *= 4.0
             if undo_ends or lam > lam_cap:
                 break
             continue
-        gain = err - err2
-        halved = err2 < 0.5 * err
-        eff = eff2
-        err = err2
+        gain = state[0] - trial[0]
+        halved = trial[0] < 0.5 * state[0]
+        state = trial
         lam = max(lam_min, lam * 0.5)
-        if err < tol or gain < max(stall, stall_rel * err) or (halving and not halved):
+        if lm_done(problem, state) or gain < max(stall, stall_rel * state[0]) or (halving and not halved):
             break
-    return eff, err, it
+    return state, it
+
+
+class PositionProblem(NamedTuple):
+    """The chain's effector onto ``handle``: the loop of the CCD finish (``engine.ccd``)
+    and of the DLS solver (``engine.dls``), steps by :func:`jacobian_step`. State (error
+    cm, effector (3,))."""
+    prot: tuple         # (4,) the chain root's parent's global rotation
+    ppos: tuple         # (3,) and position, cm
+    ch: Chain
+    local: np.ndarray   # (n,4) the chain's local rotations, in place
+    euler: np.ndarray   # (n,3) their Euler angles, radians, in place
+    handle: tuple       # (3,) cm
+    s: Scratch
+    tol: float          # cm
+
+
+def _position_save(problem):
+    n = problem.local.shape[0]
+    problem.s.bak_l[:n] = problem.local
+    problem.s.bak_e[:n] = problem.euler
+
+
+def _position_restore(problem):
+    n = problem.local.shape[0]
+    problem.local[:] = problem.s.bak_l[:n]
+    problem.euler[:] = problem.s.bak_e[:n]
+
+
+def _position_step(problem, state, damping):
+    ch, s = problem.ch, problem.s
+    jacobian_step(problem.prot, problem.local, problem.euler, ch.free, ch.lo, ch.hi, ch.weight, problem.handle,
+                  state[1], s.g_rot, s.g_pos, s.cols, s.dofs, damping, MAX_STEP)
+
+
+def _position_eval(problem):
+    ch, s = problem.ch, problem.s
+    eff = chain_fk(problem.prot, problem.ppos, ch.offsets, ch.eff_off, problem.local, s.g_rot, s.g_pos)
+    return vnorm(vsub(eff, problem.handle)), eff
+
+
+def _position_done(problem, state):
+    return not state[0] >= problem.tol      # (a NaN error too: the pose stays)
+
+
+lm_parts(PositionProblem, _position_save, _position_restore, _position_step, _position_eval, _position_done)

@@ -1,6 +1,7 @@
 """The engine's house rules, read from its source (issue 13 item 5): in the whole engine/
 package no function over 80 lines and no compiled kernel over 16 parameters; forward
-kinematics written once in numpy (engine/skeleton.py) and once compiled (engine/fk_nb.py)."""
+kinematics written once in numpy (engine/skeleton.py) and once compiled (engine/fk_nb.py);
+one Levenberg-Marquardt accept/undo loop (engine/step_nb.py: lm_loop)."""
 import ast
 
 from tests.conftest import ROOT
@@ -8,6 +9,7 @@ from tests.conftest import ROOT
 MAX_LINES = 80
 MAX_KERNEL_PARAMS = 16
 SOLVER_MODULES = ("step_nb.py", "ccd.py", "dls.py", "adapt.py", "cleanup.py")
+LM_HOME = {("step_nb.py", "lm_loop")}
 FK_HOMES = {("skeleton.py", "forward_kinematics"), ("fk_nb.py", "tree_fk"), ("fk_nb.py", "chain_fk")}
 
 
@@ -68,6 +70,28 @@ def _composes_transforms(fn) -> bool:
     return False
 
 
+def _scaled_by(node, factor) -> set[str]:
+    """Names the statements under ``node`` multiply by the constant ``factor``
+    (``x *= f``, ``x * f``, ``f * x``)."""
+    out = set()
+    for n in ast.walk(node):
+        if isinstance(n, ast.AugAssign) and isinstance(n.op, ast.Mult) and isinstance(n.target, ast.Name):
+            if isinstance(n.value, ast.Constant) and n.value.value == factor:
+                out.add(n.target.id)
+        elif isinstance(n, ast.BinOp) and isinstance(n.op, ast.Mult):
+            for a, b in ((n.left, n.right), (n.right, n.left)):
+                if isinstance(a, ast.Name) and isinstance(b, ast.Constant) and b.value == factor:
+                    out.add(a.id)
+    return out
+
+
+def _damps_like_lm(fn) -> bool:
+    """A loop that multiplies a name by 4 (a step undone: damp harder) and the same name by
+    0.5 (a step kept: damp less): a Levenberg-Marquardt accept/undo loop."""
+    return any(_scaled_by(loop, 4) & _scaled_by(loop, 0.5) for loop in ast.walk(fn)
+               if isinstance(loop, (ast.For, ast.While)))
+
+
 def test_the_checks_see_what_they_check():
     # a made-up module: a kernel of 17 parameters and a function of 81 lines are caught,
     # one of 16 and one of 80 are not
@@ -80,6 +104,10 @@ def test_the_checks_see_what_they_check():
     made_up = list(_parsed("made_up.py", source))
     assert _wide(made_up) == ["made_up.py:wide 17 parameters"]
     assert _long(made_up) == ["made_up.py:long 81 lines"]
+    lm = ("def lm(mu, err):\n    for _ in range(9):\n        if err > 1:\n            mu = mu * 4\n"
+          "            continue\n        mu = max(0.05, 0.5 * mu)\n")
+    assert [fn.name for _, fn in _parsed("lm.py", lm) if _damps_like_lm(fn)] == ["lm"]
+    assert not any(_damps_like_lm(fn) for _, fn in _parsed("lm.py", lm.replace("0.5 * mu", "0.5 * err")))
     found = list(_functions())
     assert set(SOLVER_MODULES) <= {name for name, _ in found}
     assert sum(_is_kernel(fn) for _, fn in found) >= 60        # the scan does see the engine's kernels
@@ -101,3 +129,8 @@ def test_forward_kinematics_written_once_numpy_and_once_compiled():
     assert ("skeleton.py", "forward_kinematics") in found      # the detector does see FK
     chain = [p for p, fn in _functions(("engine", "app", "tools")) if fn.name == "chain_fk"]
     assert chain == ["fk_nb.py"], chain
+
+
+def test_one_levenberg_marquardt_loop():
+    found = {(p, fn.name) for p, fn in _functions() if _damps_like_lm(fn)}
+    assert found == LM_HOME, sorted(found)
