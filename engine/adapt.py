@@ -28,7 +28,7 @@ from .fk_nb import chain_fk, tree_fk
 from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations, relative_pose
-from .step_nb import MAX_STEP, NO, Chain, hinge_axis, lm_eval, lm_loop, lm_parts, scratch, with_limits
+from .step_nb import MAX_STEP, NO, Chain, copy_rows, hinge_axis, lm_eval, lm_loop, lm_parts, scratch, with_limits
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position
@@ -339,30 +339,36 @@ class EndProblem(NamedTuple):
     work: tuple         # (g_rot, g_pos, cols (3n,7), dofs, A (6,6), x, r, bak_l, bak_e)
 
 
+# (the parts read the problem's fields before calling anything: see engine.step_nb)
+
 def _end_save(problem):
-    n = problem.local.shape[0]
-    problem.work[7][:n] = problem.local
-    problem.work[8][:n] = problem.euler
+    local, euler, bak_l, bak_e = problem.local, problem.euler, problem.work[7], problem.work[8]
+    copy_rows(local, bak_l)
+    copy_rows(euler, bak_e)
 
 
 def _end_restore(problem):
-    n = problem.local.shape[0]
-    problem.local[:] = problem.work[7][:n]
-    problem.euler[:] = problem.work[8][:n]
+    local, euler, bak_l, bak_e = problem.local, problem.euler, problem.work[7], problem.work[8]
+    copy_rows(bak_l, local)
+    copy_rows(bak_e, euler)
 
 
 def _end_step(problem, state, damping):
+    prot, local, euler, free, weight, goal = (problem.prot, problem.local, problem.euler, problem.free,
+                                              problem.weight, problem.goal)
+    lo, hi = problem.lo, problem.hi
     g_rot, g_pos, cols, dofs, A, x, r, _, _ = problem.work
-    m = _end_columns(problem.prot, g_rot, g_pos, problem.euler, problem.free, problem.weight, state[1], problem.goal,
-                     cols, dofs)
-    lsq_apply(cols, dofs, m, END_ROWS, r, problem.euler, problem.lo, problem.hi, damping, MAX_STEP, A, x)
-    put_free_locals(problem.local, problem.euler, problem.free)
+    m = _end_columns(prot, g_rot, g_pos, euler, free, weight, state[1], goal, cols, dofs)
+    lsq_apply(cols, dofs, m, END_ROWS, r, euler, lo, hi, damping, MAX_STEP, A, x)
+    put_free_locals(local, euler, free)
 
 
 def _end_eval(problem):
-    g_rot, g_pos = problem.work[0], problem.work[1]
-    eff = chain_fk(problem.prot, problem.ppos, problem.offsets, problem.eff_off, problem.local, g_rot, g_pos)
-    res, pe, oe = _end_residual(problem.goal, eff, q_at(g_rot, problem.local.shape[0] - 1), problem.work[6])
+    prot, ppos, offsets, eff_off, local, goal = (problem.prot, problem.ppos, problem.offsets, problem.eff_off,
+                                                 problem.local, problem.goal)
+    g_rot, g_pos, r = problem.work[0], problem.work[1], problem.work[6]
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    res, pe, oe = _end_residual(goal, eff, q_at(g_rot, local.shape[0] - 1), r)
     return res, eff, pe, oe
 
 
@@ -374,7 +380,7 @@ def _end_done(problem, state):
 lm_parts(EndProblem, _end_save, _end_restore, _end_step, _end_eval, _end_done)
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _end_solve(problem, max_iter, stall):
     """Damped Newton (Levenberg-Marquardt, :func:`engine.step_nb.lm_loop`) on
     :func:`_end_residual` from the current pose; a step that does not help is undone and
@@ -561,50 +567,52 @@ class BothArmsProblem(NamedTuple):
     backup: tuple       # copies of pose's arrays
 
 
-@njit(cache=True, inline='always')
-def _copy3(src, dst):
-    """Three arrays' contents ``src`` into the arrays ``dst`` of the same shapes."""
-    a, b, c = dst
-    a[:] = src[0]
-    b[:] = src[1]
-    c[:] = src[2]
-
-
 def _both_save(problem):
-    _copy3(problem.pose, problem.backup)
+    loc_l, loc_r, eul = problem.pose
+    bl, br, be = problem.backup
+    copy_rows(loc_l, bl)
+    copy_rows(loc_r, br)
+    copy_rows(eul, be)
 
 
 def _both_restore(problem):
-    _copy3(problem.backup, problem.pose)
+    loc_l, loc_r, eul = problem.pose
+    bl, br, be = problem.backup
+    copy_rows(bl, loc_l)
+    copy_rows(br, loc_r)
+    copy_rows(be, eul)
 
 
 def _both_step(problem, state, damping):
-    cols, dofs, A, x, r = problem.work
+    prot, arms, free, bufs, face, rows = (problem.prot, problem.arms, problem.free, problem.bufs, problem.goal[1],
+                                          problem.rows)
+    loc_l, loc_r, eul = problem.pose
     eul_l, eul_r = problem.halves
-    m = _both_columns(problem.prot, problem.arms[4], problem.free, problem.bufs, eul_l, eul_r, state[1], state[2],
-                      problem.goal[1], r, cols, dofs)
-    lsq_apply(cols, dofs, m, problem.rows, r, problem.pose[2], problem.limits[0], problem.limits[1], damping,
-              MAX_STEP, A, x)
-    put_free_locals(problem.pose[0], eul_l, problem.free[0])
-    put_free_locals(problem.pose[1], eul_r, problem.free[1])
+    lo, hi = problem.limits
+    cols, dofs, A, x, r = problem.work
+    m = _both_columns(prot, arms[4], free, bufs, eul_l, eul_r, state[1], state[2], face, r, cols, dofs)
+    lsq_apply(cols, dofs, m, rows, r, eul, lo, hi, damping, MAX_STEP, A, x)
+    put_free_locals(loc_l, eul_l, free[0])
+    put_free_locals(loc_r, eul_r, free[1])
 
 
 def _both_eval(problem):
+    prot, ppos, arms, bufs, goal, r = (problem.prot, problem.ppos, problem.arms, problem.bufs, problem.goal,
+                                       problem.work[4])
     loc_l, loc_r, _ = problem.pose
-    bat, t_pos, res = _both_residual(problem.prot, problem.ppos, problem.arms, loc_l, loc_r, problem.bufs,
-                                     problem.goal, problem.work[4])
+    bat, t_pos, res = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
     return res, bat, t_pos
 
 
 def _both_done(problem, state):
     """Bat, grip position and rotation (and with 12 rows the face) within tolerance."""
-    r, fw = problem.work[4], problem.goal[1][0]
+    r, fw, rows = problem.work[4], problem.goal[1][0], problem.rows
     tol, ori_tol = problem.tols
     bat_e = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / BAT_WEIGHT
     pos_e = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
     ori_e = math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / GRIP_LENGTH
     face_e = math.sqrt(r[9] * r[9] + r[10] * r[10] + r[11] * r[11]) / max(fw, 1e-300)
-    return (bat_e < tol) & (pos_e < tol) & (ori_e < ori_tol) & ((problem.rows == 9) | (face_e < FACE_TOL))
+    return (bat_e < tol) & (pos_e < tol) & (ori_e < ori_tol) & ((rows == 9) | (face_e < FACE_TOL))
 
 
 lm_parts(BothArmsProblem, _both_save, _both_restore, _both_step, _both_eval, _both_done)

@@ -249,28 +249,48 @@ class PositionProblem(NamedTuple):
     tol: float          # cm
 
 
+@njit(cache=True)
+def copy_rows(src, dst):
+    """The rows ``src (m, w)`` and ``dst (n, w)`` have in common, from src into dst
+    (a pose into its backup, and back): element by element, as the arrays never overlap
+    (a slice assignment makes a temporary copy in case they do)."""
+    for k in range(min(src.shape[0], dst.shape[0])):
+        for c in range(src.shape[1]):
+            dst[k, c] = src[k, c]
+
+
+# The parts read the problem's fields into locals before calling anything: numba counts a
+# reference to every array of the problem when a part is handed it inline, and the count
+# is pruned only when the part's last use of the problem comes before its first call.
+
 def _position_save(problem):
-    n = problem.local.shape[0]
-    problem.s.bak_l[:n] = problem.local
-    problem.s.bak_e[:n] = problem.euler
+    local, euler, s = problem.local, problem.euler, problem.s
+    bak_l, bak_e = s.bak_l, s.bak_e
+    copy_rows(local, bak_l)
+    copy_rows(euler, bak_e)
 
 
 def _position_restore(problem):
-    n = problem.local.shape[0]
-    problem.local[:] = problem.s.bak_l[:n]
-    problem.euler[:] = problem.s.bak_e[:n]
+    local, euler, s = problem.local, problem.euler, problem.s
+    bak_l, bak_e = s.bak_l, s.bak_e
+    copy_rows(bak_l, local)
+    copy_rows(bak_e, euler)
 
 
 def _position_step(problem, state, damping):
-    ch, s = problem.ch, problem.s
-    jacobian_step(problem.prot, problem.local, problem.euler, ch.free, ch.lo, ch.hi, ch.weight, problem.handle,
-                  state[1], s.g_rot, s.g_pos, s.cols, s.dofs, damping, MAX_STEP)
+    prot, local, euler, handle, ch, s = (problem.prot, problem.local, problem.euler, problem.handle, problem.ch,
+                                         problem.s)
+    free, lo, hi, weight, g_rot, g_pos, cols, dofs = ch.free, ch.lo, ch.hi, ch.weight, s.g_rot, s.g_pos, s.cols, s.dofs
+    jacobian_step(prot, local, euler, free, lo, hi, weight, handle, state[1], g_rot, g_pos, cols, dofs, damping,
+                  MAX_STEP)
 
 
 def _position_eval(problem):
-    ch, s = problem.ch, problem.s
-    eff = chain_fk(problem.prot, problem.ppos, ch.offsets, ch.eff_off, problem.local, s.g_rot, s.g_pos)
-    return vnorm(vsub(eff, problem.handle)), eff
+    prot, ppos, local, handle, ch, s = (problem.prot, problem.ppos, problem.local, problem.handle, problem.ch,
+                                        problem.s)
+    offsets, eff_off, g_rot, g_pos = ch.offsets, ch.eff_off, s.g_rot, s.g_pos
+    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    return vnorm(vsub(eff, handle)), eff
 
 
 def _position_done(problem, state):
