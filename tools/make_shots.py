@@ -160,7 +160,6 @@ def into_limits(rig, clip: Clip) -> tuple[Clip, float]:
     return fixed, largest
 
 
-
 def report(rig, name, clip, hit, clamped_deg=0.0):
     g_rot, g_pos = clip_fk(rig.skeleton, clip)
     sk = rig.skeleton

@@ -93,8 +93,9 @@ def tracks(keys: list, times: np.ndarray, solver=None) -> dict:
 
     keys = resolve_bat_keys(keys, shoulders)
     out = {c: sample(keys, c, times) for c in VECTOR if any(c in k for _, k in keys)}
-    # between keys where the face normal, interpolated apart from the axis, passes close
-    # to it (the face would flip over in a frame), the bat turns as one rotation instead
+    # a key segment before the hit whose face would turn faster than FACE_TURN_PER_FRAME
+    # (the normal, interpolated apart from the axis, swinging past it: the face flips over
+    # in a frame) turns as one rotation instead
     face = unit(perp(out["bat_n"], unit(out["bat_d"])))
     turn = np.degrees(np.arccos(np.clip((face[1:] * face[:-1]).sum(-1), -1.0, 1.0)))     # (F-1,)
     ts = np.array([t for t, k in keys if "bat_d" in k])
@@ -128,7 +129,6 @@ def sample_bat_rotation(keys: list, times: np.ndarray) -> np.ndarray:
     out[times <= ts[0]] = q[0]
     out[times >= ts[-1]] = q[-1]
     return quat.to_matrix(out / np.linalg.norm(out, axis=-1, keepdims=True))
-
 
 
 def targets(tr: dict) -> dict:
