@@ -567,20 +567,22 @@ class BothArmsProblem(NamedTuple):
     backup: tuple       # copies of pose's arrays
 
 
+@njit(cache=True, inline='always')
+def _copy_pose(src, dst):
+    """Both arms' pose ``(left local, right local, Euler angles)`` into another such tuple."""
+    copy_rows(src[0], dst[0])
+    copy_rows(src[1], dst[1])
+    copy_rows(src[2], dst[2])
+
+
 def _both_save(problem):
-    loc_l, loc_r, eul = problem.pose
-    bl, br, be = problem.backup
-    copy_rows(loc_l, bl)
-    copy_rows(loc_r, br)
-    copy_rows(eul, be)
+    pose, backup = problem.pose, problem.backup
+    _copy_pose(pose, backup)
 
 
 def _both_restore(problem):
-    loc_l, loc_r, eul = problem.pose
-    bl, br, be = problem.backup
-    copy_rows(bl, loc_l)
-    copy_rows(br, loc_r)
-    copy_rows(be, eul)
+    pose, backup = problem.pose, problem.backup
+    _copy_pose(backup, pose)
 
 
 def _both_step(problem, state, damping):
