@@ -39,17 +39,19 @@ def test_training_shot_rebuilt_near_exact(rig, shots):
     assert R.position_rmse(sh.skeleton, sh.clip, clip)[1] < 1.0
 
 
-def test_ccd_finish_meets_the_kept_joints(rig, shots):
-    sh = shots[4]
+@pytest.mark.parametrize("name", ["on_drive", "cover_drive"])
+def test_ccd_finish_meets_the_kept_joints(rig, shots, name):
+    """Every frame meets the kept joints to 0.05 cm. From the learnt guess alone the CCD
+    stalled against the limits on reachable targets (the cover drive's right hand 5.9 cm
+    short two frames after its hit, 34 cm from its shoulder); such a frame is solved again
+    from the frame before's answer and from the rest pose."""
+    sh = next(s for s in shots if s.name == name)
     others = [s.clip.local_rotations for s in shots if s is not sh]
     clip = R.rebuild_shot(rig, sh, others, "learnt+ccd")
     _, got = clip_fk(sh.skeleton, clip)
     kept = R.kept_joints(rig)
     missed = np.abs(got[:, kept] - sh.fk[1][:, kept]).max(axis=(1, 2)) >= 0.05
-    # since the on drive is swung at 11 m/s (issue 14 item 1), at one frame just after its
-    # hit the left arm's CCD, which turns the spine, leaves the right hand beyond the right
-    # arm's reach (15.9 cm short); every other frame meets the kept joints to 0.05 cm
-    assert missed.sum() <= 1, np.nonzero(missed)[0]
+    assert not missed.any(), np.nonzero(missed)[0]
 
 
 def test_keep_must_name_the_models_constraints(rig):
