@@ -187,7 +187,7 @@ class PoseSolver:
             info[pre + "_reach"] = self._arm(L, g_rot, g_pos, pre, wrist, hrot, s, pr)
         return T["hips_pos"], quat.make_continuous(to_q(L)), info
 
-    ROLLS = np.arange(-90.0, 90.1, 7.5)
+    ROLLS = np.arange(-180.0, 180.0, 7.5)     # the full circle: a follow-through may turn the face over
 
     def _choose_roll(self, g_rot, g_pos, T, pref):
         """Bat roll about its axis per frame ``(F,)`` degrees: Viterbi over the
@@ -212,7 +212,18 @@ class PoseSolver:
         # by one step at most; the shared end frames keep it exactly
         costs[near] = np.where(np.abs(self.ROLLS) <= 7.5, costs[near], np.inf)
         costs[[0, -1]] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
-        return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0)]
+        return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0, extra=self._flip_charge(T["bat_rot"]))]
+
+    FLIP_DEG, FLIP_WEIGHT = 40.0, 1e5
+
+    def _flip_charge(self, bat_rot):
+        """Transition charges ``(F-1, K, K)`` from roll i at frame f to roll j at f+1: the face
+        turning faster than FLIP_DEG a frame (1200 deg/s), keyed turn and roll together,
+        is a flip the viewer shows; charged FLIP_WEIGHT per radian^2 beyond it."""
+        r = np.radians(self.ROLLS)
+        face = np.einsum("fij,kj->fki", bat_rot, np.stack([-np.sin(r), np.cos(r), 0.0 * r], -1))  # bat Y turned
+        turn = np.arccos(np.clip(np.einsum("fid,fjd->fij", face[:-1], face[1:]), -1.0, 1.0))
+        return self.FLIP_WEIGHT * np.maximum(0.0, turn - np.radians(self.FLIP_DEG)) ** 2
 
     def _leg(self, L, g_rot, g_pos, T, side, pre):
         ix = self.ix
@@ -263,7 +274,7 @@ class PoseSolver:
         parent = g_rot[:, ix[pre + "Shoulder"]]
         psi = np.radians(np.arange(0, 360, 5.0))
         ang = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[None, :])
-        cost = self._arm_cost(ang, pre, s, pref[:, None], (self._trunk(g_pos), 1.0))
+        cost = self._arm_cost(ang, pre, s, pref[:, None], (self._trunk(g_pos), 4.0))
         choice = viterbi(cost, psi, weight=15.0)
         best = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[choice][:, None])
         e, flex, h = (best[k][:, 0] for k in ("upper", "flex", "hand"))
@@ -326,9 +337,10 @@ class PoseSolver:
                 + (h[..., 0] / 60.0) ** 2 + (e[..., 2] / 80.0) ** 2 + 50.0 * viol ** 2)
 
 
-def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float) -> np.ndarray:
+def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float, extra=None) -> np.ndarray:
     """Cheapest path of indices ``(F,)`` through ``cost (F, K)`` with a
-    ``weight * (circular angle step in radians)^2`` charge between frames."""
+    ``weight * (circular angle step in radians)^2`` charge between frames, plus
+    ``extra[f, i, j]`` ``(F-1, K, K)`` from index i at frame f to j at f + 1."""
     F, K = cost.shape
     # the first and last frames are shared by every shot: pin them to their
     # own best choice so the path cannot make them differ between shots
@@ -342,7 +354,7 @@ def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float) -> np.ndarray:
     acc = cost[0].copy()
     back = np.zeros((F, K), int)
     for f in range(1, F):
-        tot = acc[:, None] + trans                 # from i to j
+        tot = acc[:, None] + trans + (0.0 if extra is None else extra[f - 1])   # from i to j
         back[f] = np.argmin(tot, axis=0)
         acc = tot[back[f], np.arange(K)] + cost[f]
     path = np.zeros(F, int)

@@ -20,9 +20,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-from engine import quat
-
-from .shots_ik import perp, rot_axis, to_q, unit, ypr
+from .shots_ik import perp, rot_axis, unit, ypr
 
 FPS = 30.0
 ANKLE_ABOVE_TOE = np.array([0.0, -6.0, 13.0])   # ToeBase offset under Foot (rig)
@@ -92,43 +90,43 @@ def tracks(keys: list, times: np.ndarray, solver=None) -> dict:
         return shoulder_positions(solver, b["hips_pos"], ypr(*b["hips_ypr"]), ypr(*b["chest_ypr"]))
 
     keys = resolve_bat_keys(keys, shoulders)
-    out = {c: sample(keys, c, times) for c in VECTOR if any(c in k for _, k in keys)}
-    # a key segment before the hit whose face would turn faster than FACE_TURN_PER_FRAME
-    # (the normal, interpolated apart from the axis, swinging past it: the face flips over
-    # in a frame) turns as one rotation instead
-    face = unit(perp(out["bat_n"], unit(out["bat_d"])))
-    turn = np.degrees(np.arccos(np.clip((face[1:] * face[:-1]).sum(-1), -1.0, 1.0)))     # (F-1,)
-    ts = np.array([t for t, k in keys if "bat_d" in k])
-    seg = np.clip(np.searchsorted(ts, times, side="right") - 1, 0, len(ts) - 2)
-    bad = np.isin(seg, seg[1:][(turn > FACE_TURN_PER_FRAME) & (times[1:] < 0.0)])
-    if bad.any():
-        rot = sample_bat_rotation(keys, times)
-        out["bat_d"][bad], out["bat_n"][bad] = -rot[bad, :, 2], rot[bad, :, 1]
+    out = {c: sample(keys, c, times) for c in VECTOR if any(c in k for _, k in keys) and c != "bat_n"}
+    out["bat_n"] = sample_face(keys, times)
     return out
 
 
-FACE_TURN_PER_FRAME = 75.0   # deg: a segment whose face turns faster turns as one rotation
+def transport(d: np.ndarray, n0: np.ndarray) -> np.ndarray:
+    """Unit normals ``(F, 3)`` perpendicular to the axes ``d (F, 3)``: ``n0`` carried
+    along the axis path without turning about it (discrete parallel transport)."""
+    ref = np.empty_like(d)
+    ref[0] = unit(perp(n0, d[0]))
+    for i in range(1, len(d)):          # a loop over samples, authoring time only
+        ref[i] = unit(perp(ref[i - 1], d[i]))
+    return ref
 
 
-def sample_bat_rotation(keys: list, times: np.ndarray) -> np.ndarray:
-    """The bat's rotation ``(F, 3, 3)`` (bat_frame) between its keys, interpolated as one
-    rotation: its quaternion's components by a monotone cubic, normalised. The axis and
-    the face normal interpolated apart can pass through a normal along the axis, where
-    the face flips over in one frame (the straight drive's turned 170 degrees between two
-    frames at the top of its backlift)."""
-    pts = [(t, bat_frame(np.asarray(k["bat_d"], float), np.asarray(k["bat_n"], float)))
-           for t, k in keys if "bat_d" in k]
-    ts = np.array([t for t, _ in pts])
-    if len(pts) < 2 or np.any(np.diff(ts) <= 0):
-        raise ValueError(f"bat keys must lie at increasing times ({ts})")
-    q = to_q(np.stack([m for _, m in pts]))
-    for i in range(1, len(q)):             # the shorter way round from each key to the next
-        if q[i] @ q[i - 1] < 0.0:
-            q[i] = -q[i]
-    out = PchipInterpolator(ts, q, axis=0)(np.clip(times, ts[0], ts[-1]))
-    out[times <= ts[0]] = q[0]
-    out[times >= ts[-1]] = q[-1]
-    return quat.to_matrix(out / np.linalg.norm(out, axis=-1, keepdims=True))
+def sample_face(keys: list, times: np.ndarray, per_second: float = 600.0) -> np.ndarray:
+    """Face normals ``(F, 3)``: the keyed normals exactly at the keys, and between
+    them the face turned about the bat's axis by the shorter way, evenly (a monotone
+    cubic of the angle). The normal interpolated apart from the axis can swing through
+    it, where the face flips over in one frame (the straight drive's turned 169 degrees
+    between two frames at the top of its backlift, the sweep's 174 after the hit)."""
+    key_t = np.array([t for t, k in keys if "bat_n" in k])
+    key_n = np.stack([np.asarray(k["bat_n"], float) for t, k in keys if "bat_n" in k])
+    if len(key_t) < 2 or np.any(np.diff(key_t) <= 0):
+        raise ValueError(f"bat keys must lie at increasing times ({key_t})")
+    # a fine grid through every key and frame time: the transport does not depend on the frame rate
+    grid = np.union1d(np.union1d(np.arange(key_t[0], key_t[-1], 1.0 / per_second), key_t),
+                      np.clip(times, key_t[0], key_t[-1]))
+    d = unit(sample(keys, "bat_d", grid))
+    ref = transport(d, key_n[0])
+    at = np.searchsorted(grid, key_t)
+    n = unit(perp(key_n, d[at]))
+    angle = np.arctan2((np.cross(ref[at], n) * d[at]).sum(-1), (ref[at] * n).sum(-1))
+    angle = np.concatenate([[angle[0]], angle[0] + np.cumsum(np.angle(np.exp(1j * np.diff(angle))))])
+    theta = PchipInterpolator(key_t, angle)(grid)
+    face = np.cos(theta)[:, None] * ref + np.sin(theta)[:, None] * np.cross(d, ref)
+    return face[np.searchsorted(grid, np.clip(times, key_t[0], key_t[-1]))]
 
 
 def targets(tr: dict) -> dict:

@@ -53,16 +53,15 @@ def test_no_jerk_beyond_the_swing(shots, rig):
                                f"above the swing's {swing:.1f}")
 
 
-FACE_TURN_DEG_PER_FRAME = 60.0   # 1800 deg/s: faster than wrists roll a bat outside the swing
+FACE_TURN_DEG_PER_FRAME = 45.0   # 1350 deg/s: faster than wrists roll a bat outside the swing
+CONTACT_WINDOW = 2               # frames either side of the hit where the swing itself turns the face
 
 
-@pytest.mark.xfail(strict=True, reason="known (2026-12-03): the face turns 95 deg between two frames in the on "
-                   "drive's follow-through (frame 47), 84 in the square cut's backlift, 103 in the sweep's "
-                   "follow-through, 62 and 61 at the top of the straight and cover drives' backlifts: the roll the "
-                   "authoring solver picks per frame, and keys that turn the bat fast; re-authoring needed")
 def test_the_face_never_flips_over_between_two_frames(shots, rig):
-    """Outside the swing through the ball the face turns less than FACE_TURN_DEG_PER_FRAME
-    from one frame to the next: a flip between two frames is a pop the viewer shows."""
+    """Outside the contact the face turns less than FACE_TURN_DEG_PER_FRAME from one frame
+    to the next: a flip between two frames is a pop the viewer shows (the straight drive's
+    face turned 169 degrees between frames 22 and 23 before the bat's keys were
+    interpolated as one turn about the axis, the sweep's 174 four frames after the hit)."""
     from engine import quat
     n_local = np.asarray(rig.bat["face_normal"], float)
     worst = {}
@@ -70,6 +69,6 @@ def test_the_face_never_flips_over_between_two_frames(shots, rig):
         g = s.fk[0][:, rig.bat_joint]
         n = quat.rotate(g, np.broadcast_to(n_local, g.shape[:-1] + (3,)))
         turn = np.degrees(np.arccos(np.clip((n[1:] * n[:-1]).sum(-1), -1.0, 1.0)))
-        outside = np.abs(np.arange(len(turn)) - s.hit_frame) > HIT_WINDOW
+        outside = np.abs(np.arange(len(turn)) + 0.5 - s.hit_frame) > CONTACT_WINDOW
         worst[s.name] = round(float(turn[outside].max()), 1)
     assert max(worst.values()) <= FACE_TURN_DEG_PER_FRAME, worst

@@ -42,3 +42,31 @@ def test_into_limits_clamps_and_puts_the_right_hand_back():
     assert np.linalg.norm(have[0] - want[0], axis=-1).max() < 0.3
     others = np.arange(clip.num_frames) != f
     assert np.array_equal(fixed.local_rotations[others], clip.local_rotations[others])
+
+
+def test_the_face_turns_about_the_axis_the_short_way_between_keys():
+    """Keys 160 degrees apart about a still axis: the keyed normals exactly at the keys,
+    and between them the face turns evenly the shorter way (the normals interpolated
+    apart passed through the axis and flipped over in one frame)."""
+    from tools.shots_keys import sample_face
+    d = np.array([0.0, -1.0, 0.0])
+    a = np.radians(160.0)
+    n1 = np.array([np.cos(a), 0.0, np.sin(a)])
+    keys = [(0.0, {"bat_d": d, "bat_n": np.array([1.0, 0.0, 0.0])}), (0.3, {"bat_d": d, "bat_n": n1})]
+    times = np.arange(10) / 30.0
+    face = sample_face(keys, times)
+    assert np.allclose(face[0], [1, 0, 0]) and np.allclose(face[-1], n1)
+    assert np.allclose(face @ d, 0.0) and np.allclose(np.linalg.norm(face, axis=-1), 1.0)
+    turn = np.degrees(np.arccos(np.clip((face[1:] * face[:-1]).sum(-1), -1, 1)))
+    assert turn.sum() == pytest.approx(160.0, abs=0.01) and turn.max() < 160.0 / 9 * 1.6
+
+
+def test_the_face_follows_a_turning_axis_without_spinning_about_it():
+    """The axis swings 90 degrees with both keys' normals square to the swing plane:
+    the face is carried along and never turns about the axis."""
+    from tools.shots_keys import sample_face
+    n = np.array([0.0, 0.0, 1.0])
+    keys = [(0.0, {"bat_d": np.array([0.0, -1.0, 0.0]), "bat_n": n}),
+            (0.3, {"bat_d": np.array([1.0, 0.0, 0.0]), "bat_n": n})]
+    face = sample_face(keys, np.arange(10) / 30.0)
+    assert np.allclose(face, n, atol=1e-9)
