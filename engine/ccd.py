@@ -19,7 +19,7 @@ exactly the source floats.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numba import njit
@@ -189,9 +189,17 @@ class ChainArrays:
 def chain_arrays(rig, name: str, wrist_dof: int | None = None) -> ChainArrays:
     """Flat arrays of ``rig.chains[name]`` with the wrist set to ``wrist_dof``."""
     ch = rig.chains[name]
+    return joint_chain(rig, ch.joints, ch.effector, wrist_dof, name)
+
+
+def joint_chain(rig, joints, effector: int, wrist_dof: int | None = None, name: str = "") -> ChainArrays:
+    """Flat arrays of the chain of ``joints`` (root-most first, each the parent of the next)
+    ending at ``effector`` (the last joint or its child), the wrist set to ``wrist_dof``."""
     skel = rig.skeleton
-    joints = np.asarray(ch.joints, np.int64)
-    eff = int(ch.effector)
+    joints = np.asarray(joints, np.int64)
+    eff = int(effector)
+    if np.any(skel.parents[joints[1:]] != joints[:-1]):
+        raise ValueError(f"chain {name!r}: each joint must be the parent of the next")
     if eff == joints[-1]:
         eff_off = np.zeros(3)
     elif skel.parents[eff] == joints[-1]:
@@ -199,13 +207,23 @@ def chain_arrays(rig, name: str, wrist_dof: int | None = None) -> ChainArrays:
     else:
         raise ValueError(f"chain {name!r}: effector must be the last joint or its child")
     free = rig.dof_mask(wrist_dof)[joints].copy()
-    nfree = free.sum(axis=1)
-    kind = np.where(nfree == 0, KIND_NONE, np.where(nfree == 1, np.argmax(free, axis=1) + 1, KIND_MULTI))
     lim = np.radians(rig.limits[joints])
-    return ChainArrays(joints, eff, skel.offsets[joints].astype(float), eff_off, free,
-                       kind.astype(np.int64), np.ascontiguousarray(lim[..., 0]),
-                       np.ascontiguousarray(lim[..., 1]), int(skel.parents[joints[0]]),
-                       polish_weights(len(joints)))
+    return ChainArrays(joints, eff, skel.offsets[joints].astype(float), eff_off, free, kinds(free),
+                       np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1]),
+                       int(skel.parents[joints[0]]), polish_weights(len(joints)))
+
+
+def kinds(free: np.ndarray) -> np.ndarray:
+    """Each joint's kind ``(n,) int64`` from its free Euler columns ``free (n, 3)``."""
+    nfree = free.sum(axis=1)
+    return np.where(nfree == 0, KIND_NONE, np.where(nfree == 1, np.argmax(free, axis=1) + 1,
+                                                    KIND_MULTI)).astype(np.int64)
+
+
+def with_locked(chain: ChainArrays, lock: np.ndarray) -> ChainArrays:
+    """``chain`` with the joints where ``lock (n,)`` is true never turned."""
+    free = chain.free & ~np.asarray(lock, bool)[:, None]
+    return replace(chain, free=free, kind=kinds(free))
 
 
 def polish_weights(n: int) -> np.ndarray:

@@ -84,23 +84,59 @@ def _end_chain(rig, name: str) -> ccd.ChainArrays:
     return replace(ch, effector=int(ch.joints[-1]), eff_off=np.zeros(3))
 
 
-def _ccd_chain(rig, name, root, local, targets) -> None:
+def _ccd_chain(rig, name, root, local, targets, hold=None) -> None:
     """CCD of chain ``name`` from ``local``'s pose toward the kept ``targets (F, J, 3)``, in
-    place. A frame the CCD leaves short is solved again from the frame before's answer and
-    from the rest pose, the best kept: from the learnt guess CCD can stall against the limits
-    on a target the arm reaches (the cover drive's right hand, two frames after its hit, 5.9
-    cm short at 34 cm from the shoulder)."""
+    place; the chain's joints where ``hold (n,)`` is true are not turned. A frame the CCD
+    leaves short is solved again from the frame before's answer and from the rest pose, the
+    best kept: from the learnt guess CCD can stall against the limits on a target the arm
+    reaches (the cover drive's right hand, two frames after its hit, 5.9 cm short at 34 cm
+    from the shoulder)."""
     ch = _end_chain(rig, name)
+    if hold is not None:
+        ch = ccd.with_locked(ch, hold)
     g_rot, g_pos = pose_fk(rig.skeleton, root, local)
     prot, ppos, target = g_rot[:, ch.parent], g_pos[:, ch.parent], targets[:, ch.effector]
-    solved, err, _ = ccd.solve(ch, prot, ppos, local[:, ch.joints], target)
-    rest = quat.identity((1, len(ch.joints)))
+    start = local[:, ch.joints]
+    solved, err, _ = ccd.solve(ch, prot, ppos, start, target)
+    held = np.zeros(len(ch.joints), bool) if hold is None else np.asarray(hold, bool)
     for f in np.flatnonzero(err > ccd.TOLERANCE):      # a few frames at most
-        for start in (solved[f - 1:f] if f > 0 else rest, rest):
-            again, e, _ = ccd.solve(ch, prot[f:f + 1], ppos[f:f + 1], start, target[f:f + 1])
+        for other in (solved[max(f - 1, 0)], quat.identity((len(ch.joints),))):
+            other = np.where(held[:, None], start[f], other)[None]     # held joints stay as they are
+            again, e, _ = ccd.solve(ch, prot[f:f + 1], ppos[f:f + 1], other, target[f:f + 1])
             if e[0] < err[f]:
                 solved[f], err[f] = again[0], e[0]
     local[:, ch.joints] = solved
+
+
+def _reach_through_parent(rig, name, root, local, targets) -> None:
+    """Where limb ``name``'s kept end is still short and the limb hangs from another limb's
+    chain (the right arm from the spine the left-arm chain turns), solve it again with those
+    joints in its chain, then that other limb with them held; a frame is kept only where
+    both ends then meet better. The learnt spine can leave the right shoulder beyond the
+    arm's reach of the kept hand (the pull after its hit: 60-67 cm, the arm is 54)."""
+    ch = _end_chain(rig, name)
+    host = next((n for n in LIMBS if n != name and ch.parent in rig.chains[n].joints), None)
+    if host is None:
+        return
+    host_joints = list(rig.chains[host].joints)
+    joints = host_joints[: host_joints.index(ch.parent) + 1] + list(ch.joints)
+    long_chain = ccd.joint_chain(rig, joints, ch.effector, name=name)
+    host_ch = _end_chain(rig, host)
+    ends = [ch.effector, host_ch.effector]
+    g_rot, g_pos = pose_fk(rig.skeleton, root, local)
+    short = np.linalg.norm(g_pos[:, ch.effector] - targets[:, ch.effector], axis=-1) > ccd.TOLERANCE * 10
+    if not short.any():
+        return
+    f = np.flatnonzero(short)
+    before = np.linalg.norm(g_pos[f][:, ends] - targets[f][:, ends], axis=-1).sum(-1)
+    trial = local[f].copy()
+    solved, _, _ = ccd.solve(long_chain, g_rot[f, long_chain.parent], g_pos[f, long_chain.parent],
+                             trial[:, long_chain.joints], targets[f, ch.effector])
+    trial[:, long_chain.joints] = solved
+    _ccd_chain(rig, host, root[f], trial, targets[f], hold=np.isin(host_ch.joints, joints))
+    after = np.linalg.norm(pose_fk(rig.skeleton, root[f], trial)[1][:, ends] - targets[f][:, ends], axis=-1).sum(-1)
+    better = after < before
+    local[f[better]] = trial[better]
 
 
 def rebuild(rec: Reconstructor, targets: np.ndarray, ccd_finish: bool = False) -> Clip:
@@ -117,6 +153,9 @@ def rebuild(rec: Reconstructor, targets: np.ndarray, ccd_finish: bool = False) -
         local[:, m.limb.joints] = L.lookup(m, x)[0]
         if ccd_finish:
             _ccd_chain(rig, name, root, local, targets)
+    if ccd_finish:
+        for name in rec.limbs:
+            _reach_through_parent(rig, name, root, local, targets)
     return Clip(root, local)
 
 

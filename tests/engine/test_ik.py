@@ -192,3 +192,24 @@ def test_a_replaced_chain_packs_its_own_arrays(rig):
     assert moved.kernel_tuple("polish") is not first
     assert np.array_equal(moved.kernel_tuple("polish")[2], np.zeros(3))
     assert ch.kernel_tuple("polish") is first
+
+
+def test_a_chain_of_any_joints_and_its_locked_joints(rig, frame_setup):
+    """joint_chain builds the same arrays as the rig's chain from its joints; a broken
+    parent line is refused; with_locked keeps the locked joints exactly while the rest
+    still reach the target."""
+    ch = frame_setup["chain"]
+    again = ccd.joint_chain(rig, ch.joints, ch.effector, 0)
+    for f in ("joints", "offsets", "eff_off", "free", "kind", "lo", "hi"):
+        assert np.array_equal(getattr(again, f), getattr(ch, f)), f
+    with pytest.raises(ValueError, match="parent"):
+        ccd.joint_chain(rig, ch.joints[::2], ch.effector)
+    lock = np.zeros(len(ch.joints), bool)
+    lock[:3] = True                                     # the spine
+    held = ccd.with_locked(ch, lock)
+    target = frame_setup["bat"] + np.array([3.0, -4.0, 2.0])
+    solved, err, _ = ccd.solve(held, frame_setup["pr"][None], frame_setup["pp"][None], frame_setup["start"][None],
+                               target[None])
+    assert err[0] < 0.01
+    assert np.allclose(solved[0, :3], frame_setup["start"][:3])
+    assert not np.allclose(solved[0, 3:], frame_setup["start"][3:])
