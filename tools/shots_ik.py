@@ -191,7 +191,8 @@ class PoseSolver:
 
     def _choose_roll(self, g_rot, g_pos, T, pref):
         """Bat roll about its axis per frame ``(F,)`` degrees: Viterbi over the
-        arms' best comfort cost, charged ``roll_weight * (roll / 20)^2``."""
+        arms' best comfort cost, charged ``roll_weight * (roll / 20)^2``, 25 per rad^2
+        of roll from frame to frame, and a face turning over (``_flip_charge``)."""
         psi = np.radians(np.arange(0, 360, 10.0))
         F = g_pos.shape[0]
         costs = np.zeros((F, len(self.ROLLS)))
