@@ -103,6 +103,8 @@ class PoseSolver:
         bat = rig.bat
         self.left_grip = np.array(bat["left_grip"], float)
         self.axis = np.array(bat["axis"], float)
+        # the Bat joint from the left grip, in LeftHand's frame
+        self.bat_from_grip = rig.skeleton.offsets[rig.bat_joint] - self.left_grip
         self.right_below = float(bat["right_grip_below_left"])
         # right palm centre in RightHand's frame: the mirror of the left grip
         self.right_grip = self.left_grip * np.array([-1.0, 1.0, 1.0])
@@ -206,6 +208,9 @@ class PoseSolver:
                 ang = self._arm_angles(g_pos[:, self.ix[pre + "Arm"]], w, hr,
                                        g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
                 costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None], trunk).min(1)
+                # an arm folded shut: the roll carried the hand round the handle to its shoulder
+                fold = np.maximum(0.0, self.FOLD_CM - np.linalg.norm(w - g_pos[:, self.ix[pre + "Arm"]], axis=-1))
+                costs[:, k] += self.FOLD_WEIGHT * fold ** 2
         w = T["roll_weight"]
         near = ~np.isfinite(w)
         costs += np.where(near, 200.0, w)[:, None] * (self.ROLLS / 20.0) ** 2
@@ -213,7 +218,22 @@ class PoseSolver:
         # by one step at most; the shared end frames keep it exactly
         costs[near] = np.where(np.abs(self.ROLLS) <= 7.5, costs[near], np.inf)
         costs[[0, -1]] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
-        return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0, extra=self._flip_charge(T["bat_rot"]))]
+        extra = self._flip_charge(T["bat_rot"]) + self._speed_charge(T["grip"], T["bat_rot"])
+        return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0, extra=extra)]
+
+    FOLD_CM = 27.0          # make_shots.unfold's d_min: an elbow past ~135 degrees
+    FOLD_WEIGHT = 8.0       # per cm^2 nearer
+    SPEED_WEIGHT = 300.0    # per cm^2 the roll adds to the Bat joint's keyed step
+
+    def _speed_charge(self, grip, bat_rot):
+        """Transition charges ``(F-1, K, K)``: the Bat joint lies off the bat's axis, so a roll
+        moves the blade; each cm it moves beyond its keyed step between two frames is charged
+        (the defences stay slow, the stance still)."""
+        turns = rot_axis(2, self.ROLLS)                                                   # (K, 3, 3)
+        bat = grip[:, None] + np.einsum("fij,kjl,l->fki", bat_rot, turns, self.bat_from_grip)  # (F, K, 3)
+        keyed = np.linalg.norm(np.diff(bat[:, np.argmin(np.abs(self.ROLLS))], axis=0), axis=-1)
+        moved = np.linalg.norm(bat[1:, None, :] - bat[:-1, :, None], axis=-1)             # (F-1, from, to)
+        return self.SPEED_WEIGHT * np.maximum(0.0, moved - keyed[:, None, None]) ** 2
 
     FLIP_DEG, FLIP_WEIGHT = 40.0, 1e5
 

@@ -274,6 +274,23 @@ def test_the_authoring_check_finds_a_back_of_the_bat_hit():
     assert hit_problems("forward_defence", dict(m, contact="face", face_to_ball=0.9, azimuth_deg=0.0)) != []
 
 
+FOLDED_CM = 20.0            # a wrist this near its shoulder: the elbow bent past ~140 degrees
+FOLDED_FRAMES = 30          # arm-frames over the library (52 before the roll choice charged a fold)
+
+
+def test_arms_rarely_fold_shut(shots, rig):
+    """Turning the bat about its handle carries each hand round it: the authoring solver
+    charges a roll that brings a wrist within 27 cm of its shoulder, so an arm folded
+    shut (the hand at the shoulder) is rare; 14 cm is the closest the rig's elbow folds."""
+    sk = rig.skeleton
+    folded = {}
+    for s in shots.values():
+        g = s.fk[1]
+        d = [np.linalg.norm(g[:, sk.index(x + "Hand")] - g[:, sk.index(x + "Arm")], axis=-1) for x in ("Left", "Right")]
+        folded[s.name] = int(sum((x < FOLDED_CM).sum() for x in d))
+    assert sum(folded.values()) <= FOLDED_FRAMES, folded
+
+
 def test_elbows_stay_out_of_the_trunk(shots, rig):
     from tools.shots_check import trunk_problems
     for s in shots.values():
