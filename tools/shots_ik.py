@@ -91,6 +91,11 @@ def two_bone(root: np.ndarray, target: np.ndarray, l1: float, l2: float,
 RIGHT_GRIP_EXT = -40.0     # deg, see PoseSolver.__init__
 RIGHT_GRIP_DEV = 60.0
 
+def bat_from_grip(rig) -> np.ndarray:
+    """The Bat joint from the left grip ``(3,)`` cm, in LeftHand's frame."""
+    return rig.skeleton.offsets[rig.bat_joint] - np.asarray(rig.bat["left_grip"], float)
+
+
 class PoseSolver:
     """Turns world-space targets into local rotations for ``rig.skeleton``."""
 
@@ -103,8 +108,7 @@ class PoseSolver:
         bat = rig.bat
         self.left_grip = np.array(bat["left_grip"], float)
         self.axis = np.array(bat["axis"], float)
-        # the Bat joint from the left grip, in LeftHand's frame
-        self.bat_from_grip = rig.skeleton.offsets[rig.bat_joint] - self.left_grip
+        self.bat_from_grip = bat_from_grip(rig)
         self.right_below = float(bat["right_grip_below_left"])
         # right palm centre in RightHand's frame: the mirror of the left grip
         self.right_grip = self.left_grip * np.array([-1.0, 1.0, 1.0])

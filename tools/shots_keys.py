@@ -20,12 +20,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-from .shots_ik import perp, rot_axis, unit, ypr
+from engine.rig import default_rig
+
+from .shots_ik import bat_from_grip, perp, rot_axis, unit, ypr
 
 FPS = 30.0
 ANKLE_ABOVE_TOE = np.array([0.0, -6.0, 13.0])   # ToeBase offset under Foot (rig)
 GRIP_TO_TOE = 81.0                                # bat length 86 - grip_to_top 5
-BAT_FROM_GRIP = np.array([0.0, 6.6, -53.0])       # Bat joint - left grip, in LeftHand frame
+BAT_FROM_GRIP = bat_from_grip(default_rig())      # Bat joint - left grip, in LeftHand frame
 
 VECTOR = {"hips_pos": 3, "hips_ypr": 3, "chest_ypr": 3, "look": 3, "l_toe": 3, "r_toe": 3,
           "l_yaw": 1, "r_yaw": 1, "l_heel": 1, "r_heel": 1, "grip": 3, "bat_d": 3, "bat_n": 3,
