@@ -218,9 +218,9 @@ class PoseSolver:
         w = T["roll_weight"]
         near = ~np.isfinite(w)
         costs += np.where(near, 200.0, w)[:, None] * (self.ROLLS / 20.0) ** 2
-        # a frame of infinite weight (the hit: the face is keyed there) turns the face
-        # by one step at most; the shared end frames keep it exactly
-        costs[near] = np.where(np.abs(self.ROLLS) <= 7.5, costs[near], np.inf)
+        # a frame of infinite weight (the hit: the face is keyed there) and the shared end
+        # frames keep the keyed face exactly
+        costs[near] = np.where(self.ROLLS == 0.0, costs[near], np.inf)
         costs[[0, -1]] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
         extra = self._flip_charge(T["bat_rot"]) + self._speed_charge(T["grip"], T["bat_rot"])
         return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0, extra=extra)]
