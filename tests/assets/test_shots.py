@@ -275,7 +275,7 @@ def test_the_authoring_check_finds_a_back_of_the_bat_hit():
 
 
 FOLDED_CM = 20.0            # a wrist this near its shoulder: the elbow bent past ~140 degrees
-FOLDED_FRAMES = 30          # arm-frames over the library (52 before the roll choice charged a fold)
+FOLDED_FRAMES = 20          # arm-frames over the library (52 before the roll choice charged a fold, 14 now)
 
 
 def test_arms_rarely_fold_shut(shots, rig):
