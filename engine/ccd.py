@@ -28,7 +28,7 @@ from .fk_nb import chain_fk
 from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, between, from_euler_zyx, to_euler_zyx,
                       clamp_angle, into_range, other_branch, outside, pick_branch, q_at, v_at, q_put, wrap)
 from .step_nb import YES, Chain, PositionProblem, hinge_axis, lm_loop, scratch
-from .euler import within
+from .euler import degrees_outside
 
 
 KIND_NONE = 0          # no free DOF: never turned
@@ -232,13 +232,6 @@ def polish_weights(n: int) -> np.ndarray:
     return np.linspace(0.25, 1.0, n)
 
 
-def _outside_np(a, lo, hi):
-    """Degrees by which angles a lie outside [lo, hi] on the circle (0 inside)."""
-    d_lo = np.abs((lo - a + 180.0) % 360.0 - 180.0)
-    d_hi = np.abs((a - hi + 180.0) % 360.0 - 180.0)
-    return np.where(within(a, lo, hi), 0.0, np.minimum(d_lo, d_hi))
-
-
 @njit(cache=True)
 def _gimbal_split(e, lo, hi):
     """At the ZYX gimbal (y = +-90) only z + x (y = -90) or z - x (y = +90) is the
@@ -299,7 +292,7 @@ def limit_violation(local_rotations, limits) -> np.ndarray:
     """Largest excess (degrees) over ``limits (J,3,2)`` per joint ``(..., J)``,
     taking the Euler branch that fits best (0 when inside)."""
     e = limit_euler(local_rotations, limits)
-    return _outside_np(e, limits[..., 0], limits[..., 1]).max(-1)
+    return degrees_outside(e, limits[..., 0], limits[..., 1]).max(-1)
 
 
 def _check_handles(handles: np.ndarray) -> None:

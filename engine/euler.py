@@ -41,12 +41,16 @@ def within(e: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return ((e >= lo) & (e <= hi)) | ((e - 360.0 >= lo) & (e - 360.0 <= hi)) | ((e + 360.0 >= lo) & (e + 360.0 <= hi))
 
 
-def _outside(e: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Degrees by which angles lie outside [lo, hi] on the circle, summed over channels
-    (a range may run past +-180: an angle a whole turn away inside it is inside)."""
-    inside = within(e, lo, hi)
+def degrees_outside(e: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Degrees by which angles ``e`` lie outside [lo, hi] on the circle, per angle (0
+    inside; a range may run past +-180: an angle a whole turn away inside it is inside)."""
     gap = np.minimum(np.abs(wrap(lo - e)), np.abs(wrap(e - hi)))
-    return np.where(inside, 0.0, gap).sum(-1)
+    return np.where(within(e, lo, hi), 0.0, gap)
+
+
+def _outside(e: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """:func:`degrees_outside` summed over channels."""
+    return degrees_outside(e, lo, hi).sum(-1)
 
 
 def _distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:

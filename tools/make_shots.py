@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from engine import bvh, cleanup, quat
+from engine.euler import wrap
 from engine.library import Shot
 from engine.rig import assets_dir, default_rig
 from engine.skeleton import Clip, clip_fk
@@ -135,10 +136,10 @@ def into_limits(rig, clip: Clip) -> tuple[Clip, float]:
     few degrees out where the keyed bat cannot be held otherwise."""
     e = chk.dof_euler(rig, clip.local_rotations)
     lo, hi = (np.where(rig.dof, rig.limits[..., k], 0.0) for k in (0, 1))
-    out = chk._outside(e, lo, hi) > 1e-6      # not the float noise of a locked axis
-    near_lo = np.abs((e - lo + 180.0) % 360.0 - 180.0) <= np.abs((e - hi + 180.0) % 360.0 - 180.0)
+    out = chk.outside(e, lo, hi) > 1e-6      # not the float noise of a locked axis
+    near_lo = np.abs(wrap(e - lo)) <= np.abs(wrap(e - hi))
     clamped = np.where(out, np.where(near_lo, lo, hi), e)
-    largest = float(np.abs((clamped - e + 180.0) % 360.0 - 180.0).max())
+    largest = float(np.abs(wrap(clamped - e)).max())
     e = clamped
     local = clip.local_rotations.copy()
     moved = out.any(-1)
@@ -152,10 +153,7 @@ def into_limits(rig, clip: Clip) -> tuple[Clip, float]:
         # the re-grip solves every frame (its elbows may differ): kept where the grip was lost
         cleanup.reattach_right_hand(rig, rig.skeleton, fixed, src_rot, src_pos)
         # ... and where its elbow does not go through the trunk
-        spine = ("Hips", "Spine", "Spine1", "Spine2", "Neck")
-        g_pos = clip_fk(rig.skeleton, fixed)[1]
-        inside = chk.distance_to_polyline(g_pos[:, rig.skeleton.index("RightForeArm")],
-                                          g_pos[:, [rig.skeleton.index(n) for n in spine]]) < chk.TRUNK_INSIDE_CM
+        inside = chk.elbow_to_spine(rig, clip_fk(rig.skeleton, fixed)[1], "Right") < chk.TRUNK_INSIDE_CM
         fixed.local_rotations[~off | inside] = local[~off | inside]
     return fixed, largest
 

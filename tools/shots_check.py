@@ -7,14 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from engine import cleanup, quat
-from engine.euler import within
-
-
-def _outside(a, lo, hi):
-    """Degrees by which angles lie outside [lo, hi] on the circle (0 inside)."""
-    d_lo = np.abs((lo - a + 180.0) % 360.0 - 180.0)
-    d_hi = np.abs((a - hi + 180.0) % 360.0 - 180.0)
-    return np.where(within(a, lo, hi), 0.0, np.minimum(d_lo, d_hi))
+from engine.euler import degrees_outside as outside
 
 
 def dof_euler(rig, local_rotations: np.ndarray) -> np.ndarray:
@@ -25,8 +18,8 @@ def dof_euler(rig, local_rotations: np.ndarray) -> np.ndarray:
     e1 = quat.to_euler(np.asarray(local_rotations, float), "ZYX")
     e2 = (np.stack([e1[..., 0] + 180.0, 180.0 - e1[..., 1], e1[..., 2] + 180.0], -1) + 180.0) % 360.0 - 180.0
     lim = np.where(rig.dof[..., None], rig.limits, 0.0)
-    s1 = _outside(e1, lim[..., 0], lim[..., 1]).sum(-1)
-    s2 = _outside(e2, lim[..., 0], lim[..., 1]).sum(-1)
+    s1 = outside(e1, lim[..., 0], lim[..., 1]).sum(-1)
+    s2 = outside(e2, lim[..., 0], lim[..., 1]).sum(-1)
     return np.where((s2 < s1 - 1e-9)[..., None], e2, e1)
 
 
@@ -46,7 +39,7 @@ def limit_violations(rig, local_rotations: np.ndarray, tol: float = 0.5) -> list
         for a, axis in enumerate("zyx"):
             v = e[:, j, a]
             lo, hi = rig.limits[j, a] if rig.dof[j, a] else (0.0, 0.0)
-            over = _outside(v, lo, hi)
+            over = outside(v, lo, hi)
             bad = over > tol
             if np.any(bad):
                 f = int(np.argmax(over))
@@ -236,6 +229,14 @@ def shoulder_problems(rig, global_rotations, global_positions) -> list[str]:
 # hand's elbow tucked in at the back-foot defence's and the leg glance's hit, 9.1-9.4 cm.)
 TRUNK_CM = 12.0
 TRUNK_INSIDE_CM = 9.0
+TRUNK_JOINTS = ("Hips", "Spine", "Spine1", "Spine2", "Neck")   # the spine line, hips to neck
+
+
+def elbow_to_spine(rig, global_positions, side: str) -> np.ndarray:
+    """Distance (cm) ``(F,)`` of the ``side`` ("Left"/"Right") elbow from the spine line."""
+    sk = rig.skeleton
+    spine = global_positions[:, [sk.index(n) for n in TRUNK_JOINTS]]
+    return distance_to_polyline(global_positions[:, sk.index(side + "ForeArm")], spine)
 
 
 def distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
@@ -249,11 +250,9 @@ def distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
 
 def trunk_problems(rig, global_positions) -> list[str]:
     """Frames where an elbow lies inside the trunk (nearer the spine than TRUNK_INSIDE_CM)."""
-    sk = rig.skeleton
-    spine = global_positions[:, [sk.index(n) for n in ("Hips", "Spine", "Spine1", "Spine2", "Neck")]]
     out = []
     for side in ("Left", "Right"):
-        d = distance_to_polyline(global_positions[:, sk.index(side + "ForeArm")], spine)
+        d = elbow_to_spine(rig, global_positions, side)
         bad = d < TRUNK_INSIDE_CM
         if np.any(bad):
             f = int(np.argmin(d))

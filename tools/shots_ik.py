@@ -13,7 +13,7 @@ import numpy as np
 from engine import quat
 from engine.skeleton import forward_kinematics
 
-from .shots_check import _outside
+from .shots_check import TRUNK_JOINTS, outside
 
 
 # ----------------------------------------------------------------- small maths
@@ -337,7 +337,7 @@ class PoseSolver:
         hh = euler(rel(forearm, hand_rot[:, None]), "XZY")          # Rx(twist) Rz(a) Ry(b)
         return {"upper": e, "flex": flex, "hand": hh, "elbow": E}
 
-    TRUNK = ("Hips", "Spine", "Spine1", "Spine2", "Neck")
+    TRUNK = TRUNK_JOINTS
 
     def _trunk(self, g_pos):
         """The spine's polyline ``(F, 5, 3)``, hips to neck: the elbows keep out of the trunk round it."""
@@ -347,7 +347,7 @@ class PoseSolver:
         lim = self.rig.limits
         ix = self.ix
         e, h = ang["upper"], ang["hand"]
-        over = lambda v, j, c: _outside(v, lim[j, c, 0], lim[j, c, 1])
+        over = lambda v, j, c: outside(v, lim[j, c, 0], lim[j, c, 1])
         viol = (over(e[..., 0], ix[pre + "Arm"], 0) + over(e[..., 1], ix[pre + "Arm"], 1)
                 + over(e[..., 2] / 2, ix[pre + "Arm"], 2) + over(h[..., 0], ix[pre + "ForeArmRoll"], 2)
                 + over(h[..., 1], ix[pre + "Hand"], 0) + over(h[..., 2], ix[pre + "Hand"], 1))

@@ -12,7 +12,7 @@ import pytest
 from engine import quat
 from engine.library import load_library
 from engine.rig import assets_dir
-from tools.shots_check import _outside
+from tools.shots_check import outside as _outside
 
 FPS = 30.0
 FRONT_FOOT = ("forward_defence", "straight_drive", "cover_drive", "on_drive")
