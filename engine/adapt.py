@@ -28,7 +28,7 @@ from .fk_nb import chain_fk, tree_fk
 from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations, relative_pose
-from .step_nb import MAX_STEP, NO, Chain, copy_rows, hinge_axis, lm_eval, lm_loop, lm_parts, scratch, with_limits
+from .step_nb import MAX_STEP, NO, Chain, copy_rows, hinge_axis, lm_eval, lm_loop, lm_parts, scratch
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 GRIP_LENGTH = 10.0      # cm per radian: weighs the right hand's orientation against its position

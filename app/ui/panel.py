@@ -4,7 +4,6 @@ first), playback, overlays, readouts, the blend plot, the PC pad, messages."""
 from __future__ import annotations
 
 import math
-
 import time
 
 import numpy as np
