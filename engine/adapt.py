@@ -25,7 +25,7 @@ from numba import njit
 from . import quat
 from .ccd import ITERATIONS, KIND_MULTI, KIND_NONE, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, tree_fk
-from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
+from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub, widen_limits
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations, relative_pose
 from .step_nb import MAX_STEP, NO, Chain, copy_rows, hinge_axis, lm_eval, lm_loop, lm_parts, scratch
@@ -656,18 +656,6 @@ def _turn_by(turn, share):
 
 
 @njit(cache=True)
-def _effective_limits(lo, hi, src, out_lo, out_hi):
-    """The rig's limits widened to take in the source angle: a source frame
-    outside its limits may stay where it is or move back in, never further out
-    (and never jump to the far limit)."""
-    for k in range(lo.shape[0]):
-        for c in range(3):
-            a = into_range(src[k, c], lo[k, c], hi[k, c])
-            out_lo[k, c] = min(lo[k, c], a)
-            out_hi[k, c] = max(hi[k, c], a)
-
-
-@njit(cache=True)
 def _solve_chain(solver, prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, damping, s):
     if solver == 0:
         return ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s)
@@ -717,7 +705,7 @@ def _bat_frames(frames, desired, blends, shot, start, left, opts, face, out, buf
             for c in range(3):
                 src_l[k, c] = src_euler[f, lj[k], c]
                 eul_l[k, c] = src_l[k, c]
-        _effective_limits(l_lo, l_hi, src_l, lo_l, hi_l)
+        widen_limits(l_lo, l_hi, src_l, lo_l, hi_l)
         pj = parents[lj[0]]
         prot = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
         ppos = (src_gpos[f, pj, 0], src_gpos[f, pj, 1], src_gpos[f, pj, 2])
@@ -774,7 +762,7 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     gather_chain(out[0][i], lj, loc_l)
     gather_chain(start[1][f], lj, src_l)
     eul_l[:] = kept[2][i]
-    _effective_limits(l_lo, l_hi, src_l, lo[:nl], hi[:nl])
+    widen_limits(l_lo, l_hi, src_l, lo[:nl], hi[:nl])
     handle = v_at(out[4], i)
     rel_p, rel_q = v_at(rel_pos, f), q_at(rel_rot, f)
     pj = parents[lj[0]]
@@ -838,7 +826,7 @@ def _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, wor
                 for c in range(3):
                     src_r[k, c] = src_euler[f, rj[k], c]
                     eul_r[k, c] = src_r[k, c]
-            _effective_limits(r_lo, r_hi, src_r, lo_r, hi_r)
+            widen_limits(r_lo, r_hi, src_r, lo_r, hi_r)
             pj = parents[rj[0]]
             prot = (out_grot[i, pj, 0], out_grot[i, pj, 1], out_grot[i, pj, 2], out_grot[i, pj, 3])
             ppos = (out_gpos[i, pj, 0], out_gpos[i, pj, 1], out_gpos[i, pj, 2])

@@ -214,7 +214,7 @@ from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, NO_FACE, ORIENT_TOL, \
 from .ccd import ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, frames_fk
 from .step_nb import Chain, Scratch, scratch, with_limits
-from .quat_nb import q_at, q_put, v_at, clamp_angle, from_euler_zyx, into_range, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
+from .quat_nb import q_at, q_put, v_at, clamp_angle, widen_limits, from_euler_zyx, into_range, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
@@ -253,7 +253,7 @@ def _leg_frames(local, euler, parent_rot, parent_pos, sel, leg, foot, target, ta
                 loc[k, c] = local[f, lj[k], c]
             for c in range(3):
                 eul[k, c] = euler[f, lj[k], c]
-        _start_limits(lo, hi, eul, lo_w, hi_w)
+        widen_limits(lo, hi, eul, lo_w, hi_w)
         src[:] = eul
         prot = (parent_rot[f, 0], parent_rot[f, 1], parent_rot[f, 2], parent_rot[f, 3])
         ppos = (parent_pos[f, 0], parent_pos[f, 1], parent_pos[f, 2])
@@ -265,7 +265,7 @@ def _leg_frames(local, euler, parent_rot, parent_pos, sel, leg, foot, target, ta
         # the foot: its target orientation in the new shin frame, within its limits
         for c in range(3):
             ea[0, c] = euler[f, ankle, c]
-        _start_limits(a_lo, a_hi, ea, lo_a, hi_a)
+        widen_limits(a_lo, a_hi, ea, lo_a, hi_a)
         want = qmul(qconj(q_at(g_rot, n - 2)), (target_rot[f, 0], target_rot[f, 1], target_rot[f, 2],
                                                   target_rot[f, 3]))
         e = pick_branch(to_euler_zyx(want), ea, ea, a_free, lo_a, hi_a, 0)
@@ -274,29 +274,6 @@ def _leg_frames(local, euler, parent_rot, parent_pos, sel, leg, foot, target, ta
         q = from_euler_zyx(ea[0, 0], ea[0, 1], ea[0, 2])
         for c in range(4):
             local[f, ankle, c] = q[c]
-
-@njit(cache=True)
-def _start_limits(lo, hi, euler, out_lo, out_hi):
-    """The limits ``lo/hi (n,3)`` widened to take in the start angles
-    ``euler (n,3)`` (radians; a pose the new motion put outside its limits may
-    stay there or move back in, never further out). An angle outside is
-    first unwrapped to the side of the limits it is nearer on the circle
-    (as engine.ccd.limit_violation measures it), so the widening does not
-    take in the long way round."""
-    for k in range(lo.shape[0]):
-        for c in range(3):
-            a = into_range(euler[k, c], lo[k, c], hi[k, c])
-            if a > hi[k, c]:
-                d = (lo[k, c] - a) % (2.0 * math.pi)       # below lo going down
-                if d < a - hi[k, c]:
-                    a = lo[k, c] - d
-            elif a < lo[k, c]:
-                d = (a - hi[k, c]) % (2.0 * math.pi)       # above hi going up
-                if d < lo[k, c] - a:
-                    a = hi[k, c] + d
-            euler[k, c] = a
-            out_lo[k, c] = min(lo[k, c], a)
-            out_hi[k, c] = max(hi[k, c], a)
 
 @njit(cache=True)
 def _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q):
@@ -464,8 +441,8 @@ def _grip_frames(local, euler, hips, left, right, rp, rel_pos, rel_rot, tols):
         gather_chain(euler[f], lj, eul_l)
         gather_chain(local[f], rj, loc_r)
         gather_chain(euler[f], rj, eul_r)
-        _start_limits(left.lo, left.hi, eul_l, lo[:nl], hi[:nl])
-        _start_limits(right.lo, right.hi, eul_r, lo[nl:], hi[nl:])
+        widen_limits(left.lo, left.hi, eul_l, lo[:nl], hi[:nl])
+        widen_limits(right.lo, right.hi, eul_r, lo[nl:], hi[nl:])
         src_r[:] = eul_r
         frame_r[:] = loc_r
         prot, ppos = q_at(hips[0], f), v_at(hips[1], f)

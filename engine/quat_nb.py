@@ -191,6 +191,30 @@ def outside(a, lo, hi):
 
 
 @njit(cache=True)
+def widen_limits(lo, hi, euler, out_lo, out_hi):
+    """The limits ``lo/hi (n,3)`` radians widened to take in the start angles ``euler
+    (n,3)``: a pose already outside its limits may stay there or move back in, never
+    further out. An angle outside is first unwrapped, in place, to the side of the
+    limits it is nearer on the circle (as :func:`outside` measures it): a crossed arm a
+    hair below -225 deg of [-225, 90] reads +135 once wrapped, and taking that in as the
+    upper bound would open the 45 deg the limits shut."""
+    for k in range(lo.shape[0]):
+        for c in range(3):
+            a = into_range(euler[k, c], lo[k, c], hi[k, c])
+            if a > hi[k, c]:
+                d = (lo[k, c] - a) % (2.0 * math.pi)       # below lo going down
+                if d < a - hi[k, c]:
+                    a = lo[k, c] - d
+            elif a < lo[k, c]:
+                d = (a - hi[k, c]) % (2.0 * math.pi)       # above hi going up
+                if d < lo[k, c] - a:
+                    a = hi[k, c] + d
+            euler[k, c] = a
+            out_lo[k, c] = min(lo[k, c], a)
+            out_hi[k, c] = max(hi[k, c], a)
+
+
+@njit(cache=True)
 def pick_branch(e, euler, src_euler, free, lo, hi, k):
     """Of the two Euler triples of one rotation, the one that keeps the locked
     columns nearest their source values and the free ones inside the limits;

@@ -8,7 +8,7 @@ import pytest
 
 from engine import ccd, quat
 from engine.euler import within
-from engine.quat_nb import clamp_angle, into_range, outside
+from engine.quat_nb import clamp_angle, into_range, outside, widen_limits
 
 R = math.radians
 
@@ -30,6 +30,24 @@ def test_clamp_goes_to_the_nearer_bound_on_the_circle():
     assert math.isclose(outside(R(130.0), lo, hi), R(5.0))
     assert math.isclose(clamp_angle(R(170.0), lo, hi), R(-190.0))  # inside: a turn away
 
+
+
+@pytest.mark.parametrize("start,lo_deg,hi_deg", [(134.99, -225.01, 90.0),    # a hair below -225: the lower bound
+                                                 (95.0, -225.0, 95.0),       # past 90: the upper bound
+                                                 (0.0, -225.0, 90.0)])       # inside: unchanged
+def test_widening_takes_in_a_start_outside_by_the_near_side(start, lo_deg, hi_deg):
+    """A start pose outside its limits may stay there, never go further out: only the
+    bound it is nearer on the circle moves (the pull's crossed left arm sat 1e-5 deg below
+    -225; widening the far bound to its wrapped +135 let the adaptation turn it 1 deg
+    into the gap the limits shut)."""
+    lo, hi = np.array([[R(-225.0), -1.0, -1.0]]), np.array([[R(90.0), 1.0, 1.0]])
+    e = np.array([[R(start), 0.0, 0.0]])
+    out_lo, out_hi = np.empty_like(lo), np.empty_like(hi)
+    widen_limits(lo, hi, e, out_lo, out_hi)
+    assert np.allclose(np.degrees([out_lo[0, 0], out_hi[0, 0]]), [lo_deg, hi_deg])
+    assert out_lo[0, 0] <= e[0, 0] <= out_hi[0, 0]
+    assert math.isclose(math.cos(e[0, 0]), math.cos(R(start)), abs_tol=1e-12)
+    assert clamp_angle(R(120.0), out_lo[0, 0], out_hi[0, 0]) in (out_lo[0, 0], out_hi[0, 0])
 
 def test_a_pose_on_the_gimbal_is_read_inside_when_an_equal_split_is():
     """At y = -90 only z + x is the rotation: (137.5, -90, 0) is (90, -90, 47.5)."""
