@@ -300,7 +300,8 @@ class PoseSolver:
         psi = np.radians(np.arange(0, 360, 5.0))
         ang = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[None, :])
         cost = self._arm_cost(ang, pre, s, pref[:, None], (self._trunk(g_pos), 4.0))
-        choice = viterbi(cost, psi, weight=15.0)
+        extra = self._elbow_charge(ang["elbow"], wrist, S)
+        choice = viterbi(cost, psi, weight=15.0, extra=extra)
         best = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[choice][:, None])
         e, flex, h = (best[k][:, 0] for k in ("upper", "flex", "hand"))
         L[:, arm] = rot_axis(2, e[:, 0]) @ rot_axis(1, e[:, 1]) @ rot_axis(0, e[:, 2] / 2)
@@ -309,6 +310,19 @@ class PoseSolver:
         L[:, froll] = rot_axis(0, h[:, 0])
         L[:, hand] = rot_axis(2, h[:, 1]) @ rot_axis(1, h[:, 2])
         return np.linalg.norm(wrist - S, axis=-1) / (l1 + l2)
+
+    ELBOW_SLACK_CM = 3.0    # an elbow may outpace its wrist and shoulder by this much a frame
+    ELBOW_WEIGHT = 3.0      # per cm^2 beyond: at 10 the drives clamp 7-10 deg into the limits instead
+
+    def _elbow_charge(self, elbows, wrist, shoulder):
+        """Transition charges ``(F-1, K, K)`` from elbow circle angle i at frame f to j at
+        f + 1: an elbow that moves further in a frame than its wrist or its shoulder (plus
+        ELBOW_SLACK_CM) swings round the shoulder-wrist line, a pop through the body the
+        viewer shows (up to 45 cm in one frame before this charge)."""
+        step = np.maximum(np.linalg.norm(np.diff(wrist, axis=0), axis=-1),
+                          np.linalg.norm(np.diff(shoulder, axis=0), axis=-1)) + self.ELBOW_SLACK_CM
+        moved = np.linalg.norm(elbows[1:, None, :] - elbows[:-1, :, None], axis=-1)     # (F-1, from, to)
+        return self.ELBOW_WEIGHT * np.maximum(0.0, moved - step[:, None, None]) ** 2
 
     def _arm_angles(self, S, W, hand_rot, parent, l1, l2, s, psi):
         """Joint angles for elbow circle angles ``psi (F or 1, K)``: dict of (F, K, ...) arrays."""
