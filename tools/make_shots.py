@@ -180,6 +180,8 @@ def report(rig, name, clip, hit, clamped_deg=0.0):
         print("  SHOULDER", v)
     for v in chk.trunk_problems(rig, g_pos):
         print("  TRUNK", v)
+    for v in chk.elbow_problems(rig, g_pos):
+        print("  ELBOW", v)
     shot = Shot(name, f"{name}.bvh", hit, "", rig.skeleton, clip, rig.bat_joint)
     m = chk.hit_measures(rig, shot)
     print(f"  hit: {m['contact']} (face_to_ball {m['face_to_ball']:.2f}), azimuth {m['azimuth_deg']:.1f}, "

@@ -258,3 +258,31 @@ def trunk_problems(rig, global_positions) -> list[str]:
             f = int(np.argmin(d))
             out.append(f"{side} elbow {d[f]:.1f} cm from the spine at frame {f} ({int(bad.sum())} frames)")
     return out
+
+
+# An elbow outpacing its wrist and its shoulder by more than POP_CM in a frame has swung
+# round the shoulder-wrist line: a pop through the body (tools/shots_ik charges it; where the
+# keyed bat turns a hand beyond what the arm's limits follow, some remain).
+POP_CM = 5.0
+
+
+def elbow_excess(rig, global_positions, side: str) -> tuple[np.ndarray, np.ndarray]:
+    """(cm the ``side`` elbow moves in each frame beyond its wrist and its shoulder ``(F-1,)``,
+    the wrist's step ``(F-1,)``)."""
+    sk = rig.skeleton
+    step = lambda j: np.linalg.norm(np.diff(global_positions[:, sk.index(side + j)], axis=0), axis=-1)
+    wrist = step("Hand")
+    return step("ForeArm") - np.maximum(wrist, step("Arm")), wrist
+
+
+def elbow_problems(rig, global_positions) -> list[str]:
+    """Frames where an elbow pops round its arm (moves POP_CM further than its wrist and shoulder)."""
+    out = []
+    for side in ("Left", "Right"):
+        excess, _ = elbow_excess(rig, global_positions, side)
+        bad = excess > POP_CM
+        if np.any(bad):
+            f = int(np.argmax(excess))
+            out.append(f"{side} elbow {excess[f]:.1f} cm beyond its wrist between frames {f} and {f + 1} "
+                       f"({int(bad.sum())} frames over {POP_CM:.0f})")
+    return out

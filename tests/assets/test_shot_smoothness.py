@@ -74,16 +74,7 @@ def test_the_face_never_flips_over_between_two_frames(shots, rig):
     assert max(worst.values()) <= FACE_TURN_DEG_PER_FRAME, worst
 
 
-POP_CM = 5.0            # an elbow outpacing its wrist and shoulder by this much in a frame swings round the arm
 SLOW_WRIST_CM = 5.0     # a wrist slower than 1.5 m/s: no swing to hide a pop in
-
-
-def elbow_excess(shot, rig, side) -> tuple[np.ndarray, np.ndarray]:
-    """(cm the elbow moves in a frame beyond its wrist and its shoulder ``(F-1,)``, the wrist's step)."""
-    g_pos, sk = shot.fk[1], rig.skeleton
-    step = lambda j: np.linalg.norm(np.diff(g_pos[:, sk.index(side + j)], axis=0), axis=-1)
-    wrist = step("Hand")
-    return step("ForeArm") - np.maximum(wrist, step("Arm")), wrist
 
 
 def test_elbows_seldom_swing_round_the_arm(shots, rig):
@@ -91,10 +82,11 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
     line; jumping across it is a pop through the body (up to 45 cm in one frame, 183 arm-frames
     over 5 cm before tools/shots_ik charged the elbow's step). Where the keyed bat turns the
     hands beyond what the arm's limits follow (the drives' downswings) some remain."""
+    from tools.shots_check import POP_CM, elbow_excess
     pops, slow_pops = [], []
     for s in shots:
         for side in ("Left", "Right"):
-            excess, wrist = elbow_excess(s, rig, side)
+            excess, wrist = elbow_excess(rig, s.fk[1], side)
             pops += [(s.name, side, int(f)) for f in np.nonzero(excess > POP_CM)[0]]
             slow_pops += [(s.name, side, int(f)) for f in np.nonzero((excess > POP_CM) & (wrist < SLOW_WRIST_CM))[0]]
     assert len(pops) <= 90, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
