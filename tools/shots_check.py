@@ -277,12 +277,7 @@ def elbow_excess(rig, global_positions, side: str) -> tuple[np.ndarray, np.ndarr
 
 def elbow_problems(rig, global_positions) -> list[str]:
     """Frames where an elbow pops round its arm (moves POP_CM further than its wrist and shoulder)."""
-    out = []
-    for side in ("Left", "Right"):
-        excess, _ = elbow_excess(rig, global_positions, side)
-        bad = excess > POP_CM
-        if np.any(bad):
-            f = int(np.argmax(excess))
-            out.append(f"{side} elbow {excess[f]:.1f} cm beyond its wrist between frames {f} and {f + 1} "
-                       f"({int(bad.sum())} frames over {POP_CM:.0f})")
-    return out
+    excess = {side: elbow_excess(rig, global_positions, side)[0] for side in ("Left", "Right")}
+    return [f"{side} elbow {e.max():.1f} cm beyond its wrist and shoulder between frames {int(e.argmax())} "
+            f"and {int(e.argmax()) + 1} ({int((e > POP_CM).sum())} frames over {POP_CM:.0f})"
+            for side, e in excess.items() if e.max() > POP_CM]
