@@ -25,7 +25,7 @@ from numba import njit
 from . import quat
 from .ccd import ITERATIONS, KIND_MULTI, KIND_NONE, TOLERANCE, ChainArrays, ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, tree_fk
-from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, into_range, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub, widen_limits
+from .quat_nb import q_at, q_put, v_at, v_put, cross, dot, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub, widen_limits
 from .dls import DAMPING, default_stiffness, dls_frame
 from .skeleton import local_translations, relative_pose
 from .step_nb import MAX_STEP, NO, Chain, copy_rows, hinge_axis, lm_eval, lm_loop, lm_parts, scratch

@@ -214,7 +214,7 @@ from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, NO_FACE, ORIENT_TOL, \
 from .ccd import ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, frames_fk
 from .step_nb import Chain, Scratch, scratch, with_limits
-from .quat_nb import q_at, q_put, v_at, clamp_angle, widen_limits, from_euler_zyx, into_range, pick_branch, qconj, to_euler_zyx, q_angle, qmul, qrot, vadd, vnorm, vsub
+from .quat_nb import q_at, q_put, v_at, clamp_angle, widen_limits, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions

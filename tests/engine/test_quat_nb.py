@@ -31,7 +31,6 @@ def test_clamp_goes_to_the_nearer_bound_on_the_circle():
     assert math.isclose(clamp_angle(R(170.0), lo, hi), R(-190.0))  # inside: a turn away
 
 
-
 @pytest.mark.parametrize("start,lo_deg,hi_deg", [(134.99, -225.01, 90.0),    # a hair below -225: the lower bound
                                                  (95.0, -225.0, 95.0),       # past 90: the upper bound
                                                  (0.0, -225.0, 90.0)])       # inside: unchanged
