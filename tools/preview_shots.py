@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
+from app.cli.render import bat_segment
 from engine import quat
 from engine.library import load_library
 from engine.rig import default_rig
@@ -25,16 +26,6 @@ VIEWS = {  # title: (horizontal axis, sign), (vertical axis, sign)
 LEFT = (40, 90, 220)
 RIGHT = (220, 110, 40)
 MID = (60, 60, 60)
-
-
-def bat_segment(rig, g_rot, g_pos):
-    """Handle top and toe ``(F, 3)`` each."""
-    lh = rig.skeleton.index("LeftHand")
-    grip = g_pos[:, lh] + quat.rotate(g_rot[:, lh], np.array(rig.bat["left_grip"], float))
-    axis = quat.rotate(g_rot[:, lh], np.array(rig.bat["axis"], float))
-    top = grip - axis * rig.bat["grip_to_top"]
-    toe = grip + axis * (rig.bat["length"] - rig.bat["grip_to_top"])
-    return top, toe
 
 
 def draw_sheet(rig, shot, step: int = 4, cell: int = 200, scale: float = 0.8, per_row: int = 6,
@@ -49,7 +40,8 @@ def draw_sheet(rig, shot, step: int = 4, cell: int = 200, scale: float = 0.8, pe
         frames = list(range(max(h - around, 0), min(h + around, F - 1) + 1, step))
     if first is not None:
         frames = [f for f in frames if f >= first]
-    top, toe = bat_segment(rig, g_rot, g_pos)
+    seg = bat_segment(rig, g_rot, g_pos)
+    top, toe = seg[:, 0], seg[:, 1]
     sk = rig.skeleton
     rh = sk.index("RightHand")
     palm = g_pos[:, rh] + quat.rotate(g_rot[:, rh], np.array(rig.bat["left_grip"]) * [-1, 1, 1])
