@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 from PIL import Image, ImageDraw
 
 from app.cli.render import bat_segment, strip_camera
 from app.render import SceneRenderer, SceneView, offscreen_context, render_image
+from engine.atomic import atomic_output
 from engine.library import find_shot, load_library
 from engine.rig import default_rig
 from engine.skeleton import bind_positions, skinning_matrices
@@ -58,12 +60,19 @@ def main(argv=None) -> int:
     ap.add_argument("--arms", action="store_true", help="frame the shoulders and elbows too")
     a = ap.parse_args(argv)
     rig = default_rig()
-    shot = find_shot(load_library(rig=rig), a.shot)
+    try:
+        shot = find_shot(load_library(rig=rig), a.shot)
+    except KeyError as e:
+        ap.error(e.args[0])
     frames = a.frames or [f for f in range(shot.hit_frame - 3, shot.hit_frame + 4) if 0 <= f < shot.num_frames]
     bad = [f for f in frames if not 0 <= f < shot.num_frames]
     if bad:
         ap.error(f"frames {bad} outside {shot.name}'s 0..{shot.num_frames - 1}")
-    closeup_sheet(rig, shot, frames, a.arms).save(a.out)
+    if not Path(a.out).parent.is_dir():
+        ap.error(f"folder {Path(a.out).parent} does not exist")
+    sheet = closeup_sheet(rig, shot, frames, a.arms)
+    with atomic_output(a.out) as tmp:         # never a half-written PNG
+        sheet.save(tmp, format="PNG")
     print(a.out)
     return 0
 

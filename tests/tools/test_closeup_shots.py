@@ -22,7 +22,12 @@ def test_a_sheet_has_a_row_per_view_and_frames_the_hands_and_handle(rig):
         # ... and the handle's red grip shows from at least one side (from above the hands hide it)
         assert max(reds) >= 20, (k, reds)
 
-def test_frames_outside_the_shot_are_refused(capsys):
+@pytest.mark.parametrize("args,says", [(["forward_defence", "{tmp}/a.png", "500"], "outside forward_defence"),
+                                       (["no_such_shot", "{tmp}/a.png"], "unknown shot 'no_such_shot'"),
+                                       (["pull", "{tmp}/no/such/folder/a.png", "30"], "does not exist")])
+def test_bad_input_is_refused_in_one_line_and_writes_nothing(tmp_path, capsys, args, says):
     with pytest.raises(SystemExit) as e:
-        closeup_shots.main(["forward_defence", "/tmp/never.png", "500"])
-    assert e.value.code == 2 and "outside forward_defence" in capsys.readouterr().err
+        closeup_shots.main([a.format(tmp=tmp_path) for a in args])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and says in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
