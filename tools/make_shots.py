@@ -197,6 +197,8 @@ def main(argv=None):
     ap.add_argument("--only", help="build one shot")
     ap.add_argument("--out", default=str(assets_dir() / "shots"))
     a = ap.parse_args(argv)
+    if a.only and a.only not in SHOTS:
+        ap.error(f"unknown shot {a.only!r} (known: {', '.join(SHOTS)})")
     rig = default_rig()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -101,9 +101,12 @@ def main(argv=None):
     ap.add_argument("--first", type=int, help="no frame before this one")
     a = ap.parse_args(argv)
     rig = default_rig()
+    shots = load_library(rig=rig)
+    if a.shot and a.shot not in [s.name for s in shots]:
+        ap.error(f"unknown shot {a.shot!r} (known: {', '.join(s.name for s in shots)})")
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    for shot in load_library(rig=rig):
+    for shot in shots:
         if a.shot and shot.name != a.shot:
             continue
         path = out / f"{shot.name}.png"
