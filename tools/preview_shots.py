@@ -16,7 +16,7 @@ from PIL import Image, ImageDraw
 
 from app.cli.render import bat_segment
 from engine import quat
-from engine.library import load_library
+from engine.library import find_shot, load_library
 from engine.rig import default_rig
 
 VIEWS = {  # title: (horizontal axis, sign), (vertical axis, sign)
@@ -102,13 +102,13 @@ def main(argv=None):
     a = ap.parse_args(argv)
     rig = default_rig()
     shots = load_library(rig=rig)
-    if a.shot and a.shot not in [s.name for s in shots]:
-        ap.error(f"unknown shot {a.shot!r} (known: {', '.join(s.name for s in shots)})")
+    try:
+        shots = [find_shot(shots, a.shot)] if a.shot else shots
+    except KeyError as e:
+        ap.error(e.args[0])
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     for shot in shots:
-        if a.shot and shot.name != a.shot:
-            continue
         path = out / f"{shot.name}.png"
         draw_sheet(rig, shot, a.step, per_row=a.per_row, around=a.around, first=a.first).save(path)
         print(path)
