@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from engine import cleanup, quat
-from engine.euler import degrees_outside as outside
+from engine.euler import degrees_outside as outside, other_branch
 
 
 def dof_euler(rig, local_rotations: np.ndarray) -> np.ndarray:
@@ -16,7 +16,7 @@ def dof_euler(rig, local_rotations: np.ndarray) -> np.ndarray:
     +/-90, so an elbow flexed 120 degrees (pure y) comes out as (180, -60, 180)
     while its other branch, (0, -120, 0), is the one the rig means."""
     e1 = quat.to_euler(np.asarray(local_rotations, float), "ZYX")
-    e2 = (np.stack([e1[..., 0] + 180.0, 180.0 - e1[..., 1], e1[..., 2] + 180.0], -1) + 180.0) % 360.0 - 180.0
+    e2 = other_branch(e1)
     lim = np.where(rig.dof[..., None], rig.limits, 0.0)
     s1 = outside(e1, lim[..., 0], lim[..., 1]).sum(-1)
     s2 = outside(e2, lim[..., 0], lim[..., 1]).sum(-1)

@@ -236,8 +236,7 @@ class PoseSolver:
         turns = rot_axis(2, self.ROLLS)                                                   # (K, 3, 3)
         bat = grip[:, None] + np.einsum("fij,kjl,l->fki", bat_rot, turns, self.bat_from_grip)  # (F, K, 3)
         keyed = np.linalg.norm(np.diff(bat[:, np.argmin(np.abs(self.ROLLS))], axis=0), axis=-1)
-        moved = np.linalg.norm(bat[1:, None, :] - bat[:-1, :, None], axis=-1)             # (F-1, from, to)
-        return self.SPEED_WEIGHT * np.maximum(0.0, moved - keyed[:, None, None]) ** 2
+        return step_charge(bat, keyed, self.SPEED_WEIGHT)
 
     FLIP_DEG, FLIP_WEIGHT = 40.0, 1e5
 
@@ -321,8 +320,7 @@ class PoseSolver:
         viewer shows (up to 45 cm in one frame before this charge)."""
         step = np.maximum(np.linalg.norm(np.diff(wrist, axis=0), axis=-1),
                           np.linalg.norm(np.diff(shoulder, axis=0), axis=-1)) + self.ELBOW_SLACK_CM
-        moved = np.linalg.norm(elbows[1:, None, :] - elbows[:-1, :, None], axis=-1)     # (F-1, from, to)
-        return self.ELBOW_WEIGHT * np.maximum(0.0, moved - step[:, None, None]) ** 2
+        return step_charge(elbows, step, self.ELBOW_WEIGHT)
 
     def _arm_angles(self, S, W, hand_rot, parent, l1, l2, s, psi):
         """Joint angles for elbow circle angles ``psi (F or 1, K)``: dict of (F, K, ...) arrays."""
@@ -374,6 +372,14 @@ class PoseSolver:
         # elbows hang: prefer the elbow below the shoulder-wrist line
         return ((h[..., 1] / 35.0) ** 2 + ((s * h[..., 2] + pref) / 20.0) ** 2
                 + (h[..., 0] / 60.0) ** 2 + (e[..., 2] / 80.0) ** 2 + 50.0 * viol ** 2)
+
+
+def step_charge(points: np.ndarray, allowed: np.ndarray, weight: float) -> np.ndarray:
+    """Viterbi transition charges ``(F-1, K, K)`` for candidate points ``(F, K, 3)``: ``weight``
+    per cm^2 that going from candidate i at frame f to j at f + 1 moves further than
+    ``allowed (F-1,)`` cm."""
+    moved = np.linalg.norm(points[1:, None, :] - points[:-1, :, None], axis=-1)          # (F-1, from, to)
+    return weight * np.maximum(0.0, moved - allowed[:, None, None]) ** 2
 
 
 def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float, extra=None) -> np.ndarray:
