@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from engine import cleanup, quat
-from engine.euler import degrees_outside as outside, other_branch
+from engine.euler import degrees_outside as outside, other_branch, wrap
 
 
 def dof_euler(rig, local_rotations: np.ndarray) -> np.ndarray:
@@ -187,21 +187,39 @@ def hit_problems(name: str, m: dict) -> list[str]:
 HORIZONTAL_FLEXION = 135.0
 HORIZONTAL_EXTENSION = 45.0
 SHOULDER_BAND = (45.0, 135.0)     # elevation (deg from hanging) where the horizontal range applies
+SHOULDER_FADE = 10.0              # deg over which the band fades in about its edges
+
+
+def direction_angles(chest_directions: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:
+    """Elevation from hanging and horizontal angle (deg, 0 straight out to the side, + forward
+    and across) of upper-arm unit directions ``(..., 3)`` in the chest frame, the right arm
+    mirrored onto the left."""
+    d = chest_directions * np.array([-1.0, 1.0, 1.0]) if side == "Right" else chest_directions
+    elevation = np.degrees(np.arccos(np.clip(-d[..., 1], -1.0, 1.0)))
+    return elevation, np.degrees(np.arctan2(d[..., 2], d[..., 0]))
+
+
+def horizontal_excess(elevation: np.ndarray, horizontal: np.ndarray) -> np.ndarray:
+    """Degrees ``(...)`` an upper arm near shoulder height (inside SHOULDER_BAND) lies beyond
+    horizontal flexion or extension, the nearer way round the circle (an arm pointing
+    straight across the chest is 45 past flexion, not 135 past extension); 0 elsewhere.
+    The band fades in over SHOULDER_FADE degrees about its edges, so that an arm dropped
+    just below it does not read as fixed."""
+    past = np.minimum(np.abs(wrap(horizontal - HORIZONTAL_FLEXION)), np.abs(wrap(-HORIZONTAL_EXTENSION - horizontal)))
+    inside = (horizontal >= -HORIZONTAL_EXTENSION) & (horizontal <= HORIZONTAL_FLEXION)
+    lo, hi = SHOULDER_BAND
+    band = np.clip(np.minimum(elevation - lo, hi - elevation) / SHOULDER_FADE + 0.5, 0.0, 1.0)
+    return np.where(inside, 0.0, past * band)
 
 
 def humerus_angles(rig, global_rotations, global_positions, side: str) -> tuple[np.ndarray, np.ndarray]:
-    """Elevation from hanging and horizontal angle (deg, 0 straight out to the side,
-    + forward and across) of one upper arm ``(F,)`` each, in the chest (Spine2) frame,
-    the right arm mirrored onto the left."""
+    """Elevation from hanging and horizontal angle (deg) of one upper arm ``(F,)`` each, in the
+    chest (Spine2) frame (``direction_angles``)."""
     sk = rig.skeleton
     a, e = sk.index(side + "Arm"), sk.index(side + "ForeArm")
     chest = global_rotations[:, sk.index("Spine2")]
     d = quat.rotate(quat.conjugate(chest), global_positions[:, e] - global_positions[:, a])
-    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
-    if side == "Right":
-        d = d * np.array([-1.0, 1.0, 1.0])
-    elevation = np.degrees(np.arccos(np.clip(-d[:, 1], -1.0, 1.0)))
-    return elevation, np.degrees(np.arctan2(d[:, 2], d[:, 0]))
+    return direction_angles(d / np.linalg.norm(d, axis=-1, keepdims=True), side)
 
 
 def shoulder_problems(rig, global_rotations, global_positions) -> list[str]:
@@ -210,8 +228,7 @@ def shoulder_problems(rig, global_rotations, global_positions) -> list[str]:
     out = []
     for side in ("Left", "Right"):
         elev, horiz = humerus_angles(rig, global_rotations, global_positions, side)
-        band = (elev >= SHOULDER_BAND[0]) & (elev <= SHOULDER_BAND[1])
-        over = np.where(band, np.maximum(horiz - HORIZONTAL_FLEXION, -HORIZONTAL_EXTENSION - horiz), -np.inf)
+        over = horizontal_excess(elev, horiz)
         bad = over > 0.5
         if np.any(bad):
             f = int(np.argmax(over))

@@ -13,7 +13,7 @@ import numpy as np
 from engine import quat
 from engine.skeleton import forward_kinematics
 
-from .shots_check import TRUNK_JOINTS, outside
+from .shots_check import TRUNK_CM, TRUNK_JOINTS, direction_angles, distance_to_polyline, horizontal_excess, outside
 
 
 # ----------------------------------------------------------------- small maths
@@ -189,8 +189,9 @@ class PoseSolver:
             T = dict(T, bat_rot=T["bat_rot"] @ rot_axis(2, roll))
             l_wrist, l_rot, r_wrist, r_rot = self.hand_targets(T["grip"], T["bat_rot"])
         info["bat_rot"] = T["bat_rot"]
+        body = self._body(g_rot, g_pos, T, trunk_weight=4.0)
         for pre, wrist, hrot, s, pr in (("Left", l_wrist, l_rot, 1.0, pref), ("Right", r_wrist, r_rot, -1.0, 0 * pref)):
-            info[pre + "_reach"] = self._arm(L, g_rot, g_pos, pre, wrist, hrot, s, pr)
+            info[pre + "_reach"] = self._arm(L, g_rot, g_pos, pre, wrist, hrot, s, pr, body)
         return T["hips_pos"], quat.make_continuous(to_q(L)), info
 
     ROLLS = np.arange(-180.0, 180.0, 7.5)     # the full circle: a follow-through may turn the face over
@@ -203,7 +204,7 @@ class PoseSolver:
         F = g_pos.shape[0]
         costs = np.zeros((F, len(self.ROLLS)))
         # the elbows keep out of the trunk, but not at the hit, where the face is keyed
-        trunk = self._trunk(g_pos), np.isfinite(T["roll_weight"])[:, None]
+        body = self._body(g_rot, g_pos, T, trunk_weight=np.isfinite(T["roll_weight"])[:, None])
         for k, r in enumerate(self.ROLLS):
             lw, lr, rw, rr = self.hand_targets(T["grip"], T["bat_rot"] @ rot_axis(2, np.full(F, r)))
             for pre, w, hr, s, pr in (("Left", lw, lr, 1.0, pref), ("Right", rw, rr, -1.0, 0 * pref)):
@@ -211,7 +212,7 @@ class PoseSolver:
                 l2 = self.bone(pre + "ForeArmRoll") + self.bone(pre + "Hand")
                 ang = self._arm_angles(g_pos[:, self.ix[pre + "Arm"]], w, hr,
                                        g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
-                costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None], trunk).min(1)
+                costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None], body).min(1)
                 # an arm folded shut: the roll carried the hand round the handle to its shoulder
                 fold = np.maximum(0.0, self.FOLD_CM - np.linalg.norm(w - g_pos[:, self.ix[pre + "Arm"]], axis=-1))
                 costs[:, k] += self.FOLD_WEIGHT * fold ** 2
@@ -281,7 +282,7 @@ class PoseSolver:
         y = np.clip(-s * gain * 0.5 * prot, *lim[1])
         L[:, c] = rot_axis(2, z) @ rot_axis(1, y)
 
-    def _arm(self, L, g_rot, g_pos, pre, wrist, hand_rot, s, pref):
+    def _arm(self, L, g_rot, g_pos, pre, wrist, hand_rot, s, pref, body):
         """Two-bone arm: Arm(z,y)+ArmRoll(x) swing/twist, ForeArm pure y, ForeArmRoll x, Hand (z,y).
 
         The elbow may sit anywhere on its circle of solutions; a Viterbi pass
@@ -298,7 +299,7 @@ class PoseSolver:
         parent = g_rot[:, ix[pre + "Shoulder"]]
         psi = np.radians(np.arange(0, 360, 5.0))
         ang = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[None, :])
-        cost = self._arm_cost(ang, pre, s, pref[:, None], (self._trunk(g_pos), 4.0))
+        cost = self._arm_cost(ang, pre, s, pref[:, None], body)
         extra = self._elbow_charge(ang["elbow"], wrist, S)
         choice = viterbi(cost, psi, weight=15.0, extra=extra)
         best = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[choice][:, None])
@@ -347,15 +348,28 @@ class PoseSolver:
         flex = np.degrees(np.arccos(np.clip(np.sum(up_dir * fdir, -1), -1, 1)))
         forearm = upper @ rot_axis(1, -s * flex)
         hh = euler(rel(forearm, hand_rot[:, None]), "XZY")          # Rx(twist) Rz(a) Ry(b)
-        return {"upper": e, "flex": flex, "hand": hh, "elbow": E}
+        return {"upper": e, "flex": flex, "hand": hh, "elbow": E, "upper_dir": up_dir}
 
     TRUNK = TRUNK_JOINTS
 
-    def _trunk(self, g_pos):
-        """The spine's polyline ``(F, 5, 3)``, hips to neck: the elbows keep out of the trunk round it."""
-        return g_pos[:, [self.ix[n] for n in self.TRUNK]]
+    CONTACT_FRAMES = 4      # frames either side of the hit where the upper arms are not moved for the shoulder
 
-    def _arm_cost(self, ang, pre, s, pref, trunk=None):
+    def _body(self, g_rot, g_pos, T, trunk_weight) -> dict:
+        """What the elbows keep clear of, per frame: the spine's polyline ``(F, 5, 3)``, hips to
+        neck, and the chest's rotation ``(F, 3, 3)`` (the shoulder's horizontal range), both
+        charged ``trunk_weight`` ((F, 1) or scalar). The range is not charged round the hit:
+        the face is keyed there, and the adaptation's face-keeping solve starts from those arms
+        (moved, it loses the face at grid corners: tests/engine/test_face.py)."""
+        F = g_pos.shape[0]
+        hit = ~np.isfinite(T["roll_weight"]) if "roll_weight" in T else np.zeros(F, bool)
+        k = self.CONTACT_FRAMES
+        contact = np.convolve(hit.astype(float), np.ones(2 * k + 1), "same") > 0
+        return {"spine": g_pos[:, [self.ix[n] for n in self.TRUNK]], "chest": g_rot[:, self.ix["Spine2"]],
+                "trunk_weight": trunk_weight, "shoulder_weight": np.where(contact[:, None], 0.0, trunk_weight)}
+
+    SHOULDER_DEG = 15.0     # past the horizontal range by this much costs as much as 1 deg past a joint limit
+
+    def _arm_cost(self, ang, pre, s, pref, body=None):
         lim = self.rig.limits
         ix = self.ix
         e, h = ang["upper"], ang["hand"]
@@ -363,15 +377,18 @@ class PoseSolver:
         viol = (over(e[..., 0], ix[pre + "Arm"], 0) + over(e[..., 1], ix[pre + "Arm"], 1)
                 + over(e[..., 2] / 2, ix[pre + "Arm"], 2) + over(h[..., 0], ix[pre + "ForeArmRoll"], 2)
                 + over(h[..., 1], ix[pre + "Hand"], 0) + over(h[..., 2], ix[pre + "Hand"], 1))
-        if trunk is not None:
-            # an elbow closer to the spine than TRUNK_CM touches the chest or belly;
-            # trunk = (spine polyline (F, 5, 3), weight (F, 1) or scalar)
-            from .shots_check import TRUNK_CM, distance_to_polyline
-            spine, weight = trunk
-            viol = viol + weight * np.maximum(0.0, TRUNK_CM - distance_to_polyline(ang["elbow"], spine[:, None]))
+        comfort = 0.0
+        if body is not None:
+            # an elbow closer to the spine than TRUNK_CM touches the chest or belly; an upper
+            # arm past the horizontal range at shoulder height lies through the neck or the back
+            near = np.maximum(0.0, TRUNK_CM - distance_to_polyline(ang["elbow"], body["spine"][:, None]))
+            viol = viol + body["trunk_weight"] * near
+            d = np.einsum("fji,fkj->fki", body["chest"], ang["upper_dir"])
+            across = horizontal_excess(*direction_angles(d, pre))
+            comfort = 50.0 * body["shoulder_weight"] * (across / self.SHOULDER_DEG) ** 2
         # elbows hang: prefer the elbow below the shoulder-wrist line
         return ((h[..., 1] / 35.0) ** 2 + ((s * h[..., 2] + pref) / 20.0) ** 2
-                + (h[..., 0] / 60.0) ** 2 + (e[..., 2] / 80.0) ** 2 + 50.0 * viol ** 2)
+                + (h[..., 0] / 60.0) ** 2 + (e[..., 2] / 80.0) ** 2 + 50.0 * viol ** 2 + comfort)
 
 
 def step_charge(points: np.ndarray, allowed: np.ndarray, weight: float) -> np.ndarray:

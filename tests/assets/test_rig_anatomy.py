@@ -95,3 +95,15 @@ def test_the_humerus_reading_of_the_shoulder_check(rig):
         assert np.allclose(horiz, [0.0, 90.0, 150.0], atol=1e-6)
     problems = shoulder_problems(rig, g_rot, g_pos)
     assert len(problems) == 2 and all("frame 2" in p for p in problems)
+
+
+def test_the_horizontal_range_is_measured_the_near_way_round():
+    """shots_check.horizontal_excess: an arm straight across the chest is 45 past horizontal
+    flexion (not 135 past extension, the far way round); inside the range, or hanging, 0;
+    at the band's edge half."""
+    from tools.shots_check import HORIZONTAL_EXTENSION, HORIZONTAL_FLEXION, SHOULDER_BAND, horizontal_excess
+    elev = np.full(5, 90.0)
+    horiz = np.array([180.0, -180.0, -60.0, 100.0, HORIZONTAL_FLEXION])
+    assert np.allclose(horizontal_excess(elev, horiz), [45.0, 45.0, 60.0 - HORIZONTAL_EXTENSION, 0.0, 0.0])
+    assert horizontal_excess(np.array([10.0]), np.array([180.0]))[0] == 0.0
+    assert np.isclose(horizontal_excess(np.array([SHOULDER_BAND[0]]), np.array([170.0]))[0], 17.5)

@@ -81,7 +81,10 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
     """Between two frames an elbow may sit anywhere on its circle round the shoulder-wrist
     line; jumping across it is a pop through the body (up to 45 cm in one frame, 183 arm-frames
     over 5 cm before tools/shots_ik charged the elbow's step). Where the keyed bat turns the
-    hands beyond what the arm's limits follow (the drives' downswings) some remain."""
+    hands beyond what the arm's limits follow (the drives' downswings) some remain, and
+    some more where the upper arm would otherwise lie past the shoulder's horizontal range
+    (test_upper_arms_stay_in_the_shoulders_horizontal_range): 80 before that charge, 90
+    after, all but 24 with the wrist moving fast (29 before)."""
     from tools.shots_check import POP_CM, elbow_excess
     pops, slow_pops = [], []
     for s in shots:
@@ -89,5 +92,25 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
             excess, wrist = elbow_excess(rig, s.fk[1], side)
             pops += [(s.name, side, int(f)) for f in np.nonzero(excess > POP_CM)[0]]
             slow_pops += [(s.name, side, int(f)) for f in np.nonzero((excess > POP_CM) & (wrist < SLOW_WRIST_CM))[0]]
-    assert len(pops) <= 90, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
-    assert len(slow_pops) <= 35, f"{len(slow_pops)} pop while the wrist is slow (eeb3a88: 83): {slow_pops[:12]}"
+    assert len(pops) <= 100, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
+    assert len(slow_pops) <= 30, f"{len(slow_pops)} pop while the wrist is slow (eeb3a88: 83): {slow_pops[:12]}"
+
+
+FAR_PAST_DEG = 30.0
+
+
+def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
+    """Near shoulder height an upper arm crosses the chest at most 135 deg from straight out
+    to the side and swings behind it at most 45 (AAOS). Past that by 30 deg or more it lies
+    through the neck or the chest: 311 arm-frames over the library before the authoring
+    solver charged it (tools/shots_ik.PoseSolver.SHOULDER_DEG), 95 after. What is left is
+    where the keyed bat holds the hands across the chest (the finishes) and round the hits,
+    where the arms are left as they were (PoseSolver.CONTACT_FRAMES)."""
+    from tools.shots_check import horizontal_excess, humerus_angles
+    far = []
+    for s in shots:
+        g_rot, g_pos = s.fk
+        for side in ("Left", "Right"):
+            excess = horizontal_excess(*humerus_angles(rig, g_rot, g_pos, side))
+            far += [(s.name, side, int(f)) for f in np.nonzero(excess > FAR_PAST_DEG)[0]]
+    assert len(far) <= 105, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the horizontal range: {far[:12]}"
