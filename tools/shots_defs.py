@@ -217,11 +217,13 @@ def forward_defence():
     L.home(0.58, 0.92)
     R.pivot(0.70, 0.95, heel=0.0, yaw=-90.0, drag=(0, 0, -5))
     bats = [(-0.80, dict(STANCE_BAT)),
-            (-0.62, bat(grip=(16, 96, 118), d=(-0.15, -0.7, -0.7), x=(0.14, -1, 0.04))),
+            # the hands in front of the body (x 8 and below: at 16-20 they sat under and behind the
+            # front shoulder, and the top arm hung back behind the trunk, turned 120 deg in)
+            (-0.62, bat(grip=(8, 96, 118), d=(-0.15, -0.7, -0.7), x=(0.14, -1, 0.04))),
             # a compact backlift, its top (toe ~0.65 m up) carried forward by the stride, so
             # that the bat never exceeds the measured FD peak of 3.5 m/s (Stretch et al.)
-            (-0.45, bat(grip=(20, 110, 142), d=(-0.61, -0.63, -0.47))),          # picked up toward gully
-            (-0.30, bat(grip=(14, 103, 160), d=(-0.12, -0.78, -0.62))),
+            (-0.45, bat(grip=(8, 110, 140), d=(-0.61, -0.63, -0.47))),          # picked up toward gully
+            (-0.30, bat(grip=(6, 103, 158), d=(-0.12, -0.78, -0.62))),
             (-0.16, bat(grip=(6, 94, 182), d=(-0.05, -0.93, -0.36), x=(0.2, -0.9, 0.4))),
             (-0.07, bat(hit=(1, 40, 185), d=(-0.02, -1, -0.32), n=(0, 0, 1))),
             (0.0, bat(hit=hit, d=(0, -1, -0.4), n=(0, 0, 1))),
