@@ -188,13 +188,20 @@ HORIZONTAL_FLEXION = 135.0
 HORIZONTAL_EXTENSION = 45.0
 SHOULDER_BAND = (45.0, 135.0)     # elevation (deg from hanging) where the horizontal range applies
 SHOULDER_FADE = 10.0              # deg over which the band fades in about its edges
+_MIRROR = np.array([-1.0, 1.0, 1.0])
+
+
+def _in_band(elevation: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    """Weight ``(...)`` of a reading at ``elevation``: 1 inside ``band``, 0 outside, faded over
+    SHOULDER_FADE about its edges (an arm dropped just out of it does not read as fixed)."""
+    return np.clip(np.minimum(elevation - band[0], band[1] - elevation) / SHOULDER_FADE + 0.5, 0.0, 1.0)
 
 
 def direction_angles(chest_directions: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:
     """Elevation from hanging and horizontal angle (deg, 0 straight out to the side, + forward
     and across) of upper-arm unit directions ``(..., 3)`` in the chest frame, the right arm
     mirrored onto the left."""
-    d = chest_directions * np.array([-1.0, 1.0, 1.0]) if side == "Right" else chest_directions
+    d = chest_directions * _MIRROR if side == "Right" else chest_directions
     elevation = np.degrees(np.arccos(np.clip(-d[..., 1], -1.0, 1.0)))
     return elevation, np.degrees(np.arctan2(d[..., 2], d[..., 0]))
 
@@ -202,14 +209,10 @@ def direction_angles(chest_directions: np.ndarray, side: str) -> tuple[np.ndarra
 def horizontal_excess(elevation: np.ndarray, horizontal: np.ndarray) -> np.ndarray:
     """Degrees ``(...)`` an upper arm near shoulder height (inside SHOULDER_BAND) lies beyond
     horizontal flexion or extension, the nearer way round the circle (an arm pointing
-    straight across the chest is 45 past flexion, not 135 past extension); 0 elsewhere.
-    The band fades in over SHOULDER_FADE degrees about its edges, so that an arm dropped
-    just below it does not read as fixed."""
+    straight across the chest is 45 past flexion, not 135 past extension); 0 elsewhere."""
     past = np.minimum(np.abs(wrap(horizontal - HORIZONTAL_FLEXION)), np.abs(wrap(-HORIZONTAL_EXTENSION - horizontal)))
     inside = (horizontal >= -HORIZONTAL_EXTENSION) & (horizontal <= HORIZONTAL_FLEXION)
-    lo, hi = SHOULDER_BAND
-    band = np.clip(np.minimum(elevation - lo, hi - elevation) / SHOULDER_FADE + 0.5, 0.0, 1.0)
-    return np.where(inside, 0.0, past * band)
+    return np.where(inside, 0.0, past * _in_band(elevation, SHOULDER_BAND))
 
 
 def humerus_angles(rig, global_rotations, global_positions, side: str) -> tuple[np.ndarray, np.ndarray]:
@@ -255,7 +258,6 @@ def _flagged(what: str, excess: np.ndarray, reading: np.ndarray, elevation: np.n
 INTERNAL_ROTATION = 70.0
 EXTERNAL_ROTATION = 90.0
 AXIAL_BAND = (20.0, 160.0)        # elevation (deg) where the axial rotation is read
-_MIRROR = np.array([-1.0, 1.0, 1.0])
 
 
 def humerothoracic(chest: np.ndarray, humerus: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -284,10 +286,9 @@ def humerothoracic(chest: np.ndarray, humerus: np.ndarray, side: str) -> tuple[n
 
 def axial_excess(elevation: np.ndarray, axial: np.ndarray) -> np.ndarray:
     """Degrees ``(...)`` an upper arm is turned past AAOS's internal or external rotation,
-    read inside AXIAL_BAND (faded in over SHOULDER_FADE at its edges); 0 elsewhere."""
+    read inside AXIAL_BAND; 0 elsewhere."""
     past = np.maximum(axial - INTERNAL_ROTATION, -EXTERNAL_ROTATION - axial).clip(0.0)
-    lo, hi = AXIAL_BAND
-    return past * np.clip(np.minimum(elevation - lo, hi - elevation) / SHOULDER_FADE + 0.5, 0.0, 1.0)
+    return past * _in_band(elevation, AXIAL_BAND)
 
 
 def humeral_rotations(rig, global_rotations, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

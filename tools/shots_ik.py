@@ -355,10 +355,11 @@ class PoseSolver:
 
     CONTACT_FRAMES = 4      # frames either side of the hit where the upper arms are not moved for the shoulder
 
-    def _body(self, g_rot, g_pos, T, trunk_weight, axial=1.0) -> dict:
+    def _body(self, g_rot, g_pos, T, trunk_weight) -> dict:
         """What the elbows keep clear of, per frame: the spine's polyline ``(F, 5, 3)``, hips to
-        neck, and the chest's rotation ``(F, 3, 3)`` (the shoulder's horizontal range), both
-        charged ``trunk_weight`` ((F, 1) or scalar). The range is not charged round the hit:
+        neck, and the chest's rotation ``(F, 3, 3)`` (the shoulder's horizontal range and the
+        humerus's axial rotation), charged ``trunk_weight`` ((F, 1) or scalar). The shoulder's
+        ranges are not charged round the hit:
         the face is keyed there, and the adaptation's face-keeping solve starts from those arms
         (moved, it loses the face at grid corners: tests/engine/test_face.py)."""
         F = g_pos.shape[0]
@@ -366,8 +367,7 @@ class PoseSolver:
         k = self.CONTACT_FRAMES
         contact = np.convolve(hit.astype(float), np.ones(2 * k + 1), "same") > 0
         return {"spine": g_pos[:, [self.ix[n] for n in self.TRUNK]], "chest": g_rot[:, self.ix["Spine2"]],
-                "trunk_weight": trunk_weight, "shoulder_weight": np.where(contact[:, None], 0.0, trunk_weight),
-                "axial": axial}
+                "trunk_weight": trunk_weight, "shoulder_weight": np.where(contact[:, None], 0.0, trunk_weight)}
 
     SHOULDER_DEG = 15.0     # past the horizontal range by this much costs as much as 1 deg past a joint limit
     AXIAL_DEG = 20.0        # turned past AAOS's humeral rotation by this much, the same
@@ -390,8 +390,7 @@ class PoseSolver:
             across = horizontal_excess(*direction_angles(d, pre))
             _, elevation, axial = humerothoracic(body["chest"][:, None], ang["upper_rot"], pre)
             turned = axial_excess(elevation, axial)
-            comfort = 50.0 * body["shoulder_weight"] * ((across / self.SHOULDER_DEG) ** 2
-                                                        + body["axial"] * (turned / self.AXIAL_DEG) ** 2)
+            comfort = 50.0 * body["shoulder_weight"] * ((across / self.SHOULDER_DEG) ** 2 + (turned / self.AXIAL_DEG) ** 2)
         # elbows hang: prefer the elbow below the shoulder-wrist line
         return ((h[..., 1] / 35.0) ** 2 + ((s * h[..., 2] + pref) / 20.0) ** 2
                 + (h[..., 0] / 60.0) ** 2 + (e[..., 2] / 80.0) ** 2 + 50.0 * viol ** 2 + comfort)
