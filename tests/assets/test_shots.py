@@ -275,8 +275,8 @@ def test_the_authoring_check_finds_a_back_of_the_bat_hit():
 
 
 FOLDED_CM = 20.0            # a wrist this near its shoulder: the elbow bent past ~140 degrees
-FOLDED_FRAMES = 25          # arm-frames over the library (52 before the roll choice charged a fold; 20 before the
-                            # humerus's axial rotation was charged, 23 after: all 14-20 cm, in finishes)
+FOLDED_FRAMES = 25          # arm-frames over the library (52 before the roll choice charged a fold, 14 at 078b55c;
+                            # 23 since the shoulder's ranges are charged: 14-20 cm, mostly in follow-throughs)
 
 
 def test_arms_rarely_fold_shut(shots, rig):
