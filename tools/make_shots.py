@@ -176,7 +176,7 @@ def report(rig, name, clip, hit, clamped_deg=0.0):
               f"runs {chk.planted_runs(p, FPS)}")
     for v in chk.limit_violations(rig, clip.local_rotations):
         print("  LIMIT", v)
-    for v in chk.shoulder_problems(rig, g_rot, g_pos):
+    for v in chk.shoulder_problems(rig, g_rot):
         print("  SHOULDER", v)
     for v in chk.trunk_problems(rig, g_pos):
         print("  TRUNK", v)

@@ -197,15 +197,6 @@ def _in_band(elevation: np.ndarray, band: tuple[float, float]) -> np.ndarray:
     return np.clip(np.minimum(elevation - band[0], band[1] - elevation) / SHOULDER_FADE + 0.5, 0.0, 1.0)
 
 
-def direction_angles(chest_directions: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:
-    """Elevation from hanging and horizontal angle (deg, 0 straight out to the side, + forward
-    and across) of upper-arm unit directions ``(..., 3)`` in the chest frame, the right arm
-    mirrored onto the left."""
-    d = chest_directions * _MIRROR if side == "Right" else chest_directions
-    elevation = np.degrees(np.arccos(np.clip(-d[..., 1], -1.0, 1.0)))
-    return elevation, np.degrees(np.arctan2(d[..., 2], d[..., 0]))
-
-
 def horizontal_excess(elevation: np.ndarray, horizontal: np.ndarray) -> np.ndarray:
     """Degrees ``(...)`` an upper arm near shoulder height (inside SHOULDER_BAND) lies beyond
     horizontal flexion or extension, the nearer way round the circle (an arm pointing
@@ -215,26 +206,23 @@ def horizontal_excess(elevation: np.ndarray, horizontal: np.ndarray) -> np.ndarr
     return np.where(inside, 0.0, past * _in_band(elevation, SHOULDER_BAND))
 
 
-def humerus_angles(rig, global_rotations, global_positions, side: str) -> tuple[np.ndarray, np.ndarray]:
-    """Elevation from hanging and horizontal angle (deg) of one upper arm ``(F,)`` each, in the
-    chest (Spine2) frame (``direction_angles``)."""
-    sk = rig.skeleton
-    a, e = sk.index(side + "Arm"), sk.index(side + "ForeArm")
-    chest = global_rotations[:, sk.index("Spine2")]
-    d = quat.rotate(quat.conjugate(chest), global_positions[:, e] - global_positions[:, a])
-    return direction_angles(d / np.linalg.norm(d, axis=-1, keepdims=True), side)
+def humerus_angles(rig, global_rotations, side: str) -> tuple[np.ndarray, np.ndarray]:
+    """Elevation from hanging and horizontal angle (deg, 0 straight out to the side, + forward
+    and across) of one upper arm ``(F,)`` each, in the chest (Spine2) frame: ISB's elevation
+    and plane of elevation (``humeral_rotations``)."""
+    plane, elevation, _ = humeral_rotations(rig, global_rotations, side)
+    return elevation, plane
 
 
-def shoulder_problems(rig, global_rotations, global_positions) -> list[str]:
+def shoulder_problems(rig, global_rotations) -> list[str]:
     """Frames where an upper arm near shoulder height crosses the body further than the
     documented horizontal flexion, or swings behind it further than horizontal extension,
     and where the humerus is turned past its documented axial rotation (``axial_excess``)."""
     out = []
     for side in ("Left", "Right"):
-        elev, horiz = humerus_angles(rig, global_rotations, global_positions, side)
+        horiz, elev, axial = humeral_rotations(rig, global_rotations, side)
         out += _flagged(f"{side} upper arm at {{:.0f}} deg horizontally", horizontal_excess(elev, horiz), horiz, elev,
                         f"range {-HORIZONTAL_EXTENSION:.0f}..{HORIZONTAL_FLEXION:.0f}")
-        _, elev, axial = humeral_rotations(rig, global_rotations, side)
         out += _flagged(f"{side} humerus turned {{:.0f}} deg (+ internal)", axial_excess(elev, axial), axial, elev,
                         f"range {-EXTERNAL_ROTATION:.0f}..{INTERNAL_ROTATION:.0f}")
     return out

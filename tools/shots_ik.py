@@ -13,8 +13,8 @@ import numpy as np
 from engine import quat
 from engine.skeleton import forward_kinematics
 
-from .shots_check import (TRUNK_CM, TRUNK_JOINTS, axial_excess, direction_angles, distance_to_polyline,
-                          horizontal_excess, humerothoracic, outside)
+from .shots_check import (TRUNK_CM, TRUNK_JOINTS, axial_excess, distance_to_polyline, horizontal_excess,
+                          humerothoracic, outside)
 
 
 # ----------------------------------------------------------------- small maths
@@ -349,7 +349,7 @@ class PoseSolver:
         flex = np.degrees(np.arccos(np.clip(np.sum(up_dir * fdir, -1), -1, 1)))
         forearm = upper @ rot_axis(1, -s * flex)
         hh = euler(rel(forearm, hand_rot[:, None]), "XZY")          # Rx(twist) Rz(a) Ry(b)
-        return {"upper": e, "flex": flex, "hand": hh, "elbow": E, "upper_dir": up_dir, "upper_rot": upper}
+        return {"upper": e, "flex": flex, "hand": hh, "elbow": E, "upper_rot": upper}
 
     TRUNK = TRUNK_JOINTS
 
@@ -386,10 +386,8 @@ class PoseSolver:
             # arm past the horizontal range at shoulder height lies through the neck or the back
             near = np.maximum(0.0, TRUNK_CM - distance_to_polyline(ang["elbow"], body["spine"][:, None]))
             viol = viol + body["trunk_weight"] * near
-            d = np.einsum("fji,fkj->fki", body["chest"], ang["upper_dir"])
-            across = horizontal_excess(*direction_angles(d, pre))
-            _, elevation, axial = humerothoracic(body["chest"][:, None], ang["upper_rot"], pre)
-            turned = axial_excess(elevation, axial)
+            plane, elevation, axial = humerothoracic(body["chest"][:, None], ang["upper_rot"], pre)
+            across, turned = horizontal_excess(elevation, plane), axial_excess(elevation, axial)
             comfort = 50.0 * body["shoulder_weight"] * ((across / self.SHOULDER_DEG) ** 2 + (turned / self.AXIAL_DEG) ** 2)
         # elbows hang: prefer the elbow below the shoulder-wrist line
         return ((h[..., 1] / 35.0) ** 2 + ((s * h[..., 2] + pref) / 20.0) ** 2

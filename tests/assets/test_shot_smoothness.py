@@ -111,9 +111,8 @@ def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
     from tools.shots_check import horizontal_excess, humerus_angles
     far = []
     for s in shots:
-        g_rot, g_pos = s.fk
         for side in ("Left", "Right"):
-            excess = horizontal_excess(*humerus_angles(rig, g_rot, g_pos, side))
+            excess = horizontal_excess(*humerus_angles(rig, s.fk[0], side))
             far += [(s.name, side, int(f)) for f in np.nonzero(excess > FAR_PAST_DEG)[0]]
     assert len(far) <= 105, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the horizontal range: {far[:12]}"
 
