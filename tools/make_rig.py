@@ -11,7 +11,9 @@ Anatomical ranges (DESIGN.md: a shot that needs more is re-keyed, the limit is n
   to the thigh, abducted 90 deg): pronation 85, supination 90 (Kapandji, The
   Physiology of the Joints vol. 1; AAOS, Joint Motion: Method of Measuring and
   Recording, 1965, gives 80 / 80). For the left arm +x turns the palm backward and
-  the thumb down: pronation; so [-90, 85], mirrored on the right.
+  the thumb down: pronation; so [-90, 85]. The same on the right: the frames are
+  world-aligned, and a mirror across the midplane keeps a rotation about X (+x turns
+  either thumb down).
 - Hand z, wrist flexion/extension: flexion 80, extension 70 (AAOS 1965). For the
   left hand +z lifts the fingers (extension): [-80, 70], mirrored on the right.
 - Arm (the humerus under the clavicle), R = Rz(z) Ry(y) Rx(x) with x along the bone
@@ -72,9 +74,12 @@ def joint(name, parent, offset, dof="", limits=None, end=None):
 def side(prefix, s):
     """Arm and leg joints; s = +1 for left (+X), -1 for right."""
     def lim(z, y, x):
-        # mirror: z and y flip sign for the right side, x (twist) too
+        # mirror across the midplane (x -> -x): rotations about world Z and Y flip sign on
+        # the right side; a rotation about X keeps it, as the frames are world-aligned (+x
+        # turns either thumb down from the T-pose: pronation, internal rotation)
         f = (lambda r: r) if s > 0 else (lambda r: [-r[1], -r[0]])
-        return {k: f(v) for k, v in (("z", z), ("y", y), ("x", x)) if v is not None}
+        out = {k: f(v) for k, v in (("z", z), ("y", y)) if v is not None}
+        return {**out, **({"x": x} if x is not None else {})}
     L = prefix
     return [
         joint(f"{L}Shoulder", "Spine2", [3.0 * s, 12.0, 0.0], "zy", lim([-25, 35], [-30, 30], None)),

@@ -338,16 +338,20 @@ def back_foot_defence():
             # a short, early backlift: the bat stays under 3.5 m/s (Stretch et al.'s FD peak)
             (-0.42, bat(grip=(22, 112, 102), d=(-0.4, -0.5, -0.77))),
             (-0.22, bat(grip=(12, 118, 118), d=(-0.22, -0.85, -0.48))),
-            (-0.07, bat(hit=hit + V(1, 6, -16), d=(-0.3, -0.92, -0.22), n=(0, 0, 1))),
-            (0.0, bat(hit=hit, d=(-0.17, -0.94, -0.28), n=(0, 0, 1))),
-            (0.12, bat(hit=hit + V(-1, -1, 2), d=(-0.34, -0.9, -0.3), n=(0, 0, 1))),
-            (0.40, bat(hit=hit + V(0, 2, 1), d=(-0.3, -0.92, -0.26), n=(0, 0, 1))),
+            (-0.07, bat(hit=hit + V(1, 4, -12), d=(-0.3, -0.92, -0.22), n=(0, 0, 1))),
+            (0.0, bat(hit=hit, d=(-0.24, -0.94, -0.28), n=(0, 0, 1))),
+            # the dead bat after the ball: the face eases open toward point (held square, the
+            # bottom hand needs more supination than its 90, Kapandji)
+            (0.12, bat(hit=hit + V(-1, -1, 2), d=(-0.34, -0.9, -0.3), n=(-0.3, 0, 1))),
+            (0.40, bat(hit=hit + V(0, 2, 1), d=(-0.3, -0.92, -0.26), n=(-0.3, 0, 1))),
             (0.72, bat(grip=(6, 104, 125), d=(-0.1, -1, -0.2)))]
     looks = [(-0.55, BOWLER), (-0.30, (0, 120, 600)), (0.0, hit + V(0, 0, 10)), (0.40, hit + V(0, -20, 60)),
              (0.95, BOWLER)]
     keys = back_foot(t_frames(30), 1.25, (16, 1, 84), -92.0, (19, 1, 124), -80.0, bats,
-                     body(hips=(26, 84, 104), hips_ypr=(-86, 10, 0), chest=(-80, 24, 4)),
-                     body(hips=(26, 84, 105), hips_ypr=(-86, 10, 0), chest=(-80, 22, 4)), looks,
+                     # tall on the back foot (chest pitch 16, the stance's 24): crouched, the
+                     # bottom elbow tucks into the trunk at the hit
+                     body(hips=(26, 84, 104), hips_ypr=(-86, 10, 0), chest=(-80, 16, 4)),
+                     body(hips=(26, 84, 105), hips_ypr=(-86, 10, 0), chest=(-80, 16, 4)), looks,
                      tilts=[(-0.25, 0.0), (0.0, 10.0), (0.25, 0.0)])
     return keys, "Back-foot defence: back and across, high left elbow, bat angled down over a rising ball."
 
