@@ -50,6 +50,8 @@ Not yet anatomical (issue 14, see the shots' report):
 import json
 from pathlib import Path
 
+import numpy as np
+
 BALL_DIAMETER = 7.2
 BAT = {
     "length": 86.0, "handle_length": 30.0, "blade_width": 10.8,
@@ -57,6 +59,8 @@ BAT = {
     # grip point of the left (top) hand, in LeftHand's frame: the palm centre
     "left_grip": [8.0, -2.0, 0.0],
     "grip_to_top": 5.0,               # handle top lies 5 cm beyond the left grip
+    # the top hand's grip: the Bat joint (bat_joint_offset) and the authoring tools
+    # (tools/shots_ik.grip_frame) follow these two, so a grip is changed here alone
     "axis": [0.0, 0.0, -1.0],         # handle -> toe, in LeftHand's frame
     "face_normal": [0.0, 1.0, 0.0],   # out of the face, in LeftHand's frame
     "right_grip_below_left": 11.0,    # cm further down the handle
@@ -110,6 +114,15 @@ def leg(prefix, s):
     ]
 
 
+def bat_joint_offset(b: dict) -> list:
+    """Where the ball meets the face, in LeftHand's frame (cm): the middle of the blade, a
+    ball's radius out from the face, wherever the grip (``axis``, ``face_normal``) holds it."""
+    axis, normal = np.asarray(b["axis"], float), np.asarray(b["face_normal"], float)
+    along = b["length"] - b["grip_to_top"] - (b["length"] - b["handle_length"]) / 2
+    out = b["blade_thickness"] / 2 + BALL_DIAMETER / 2
+    return (np.asarray(b["left_grip"], float) + along * axis + out * normal).tolist()
+
+
 def rig():
     spine = {"z": [-45, 45], "y": [-50, 50], "x": [-40, 60]}
     joints = [
@@ -122,10 +135,7 @@ def rig():
               end=[0.0, 19.0, 0.0]),
     ]
     joints += side("Left", 1) + side("Right", -1) + leg("Left", 1) + leg("Right", -1)
-    b = BAT
-    face_z = -(b["length"] - b["grip_to_top"] - (b["length"] - b["handle_length"]) / 2)
-    face_y = b["left_grip"][1] + b["blade_thickness"] / 2 + BALL_DIAMETER / 2
-    joints.append(joint("Bat", "LeftHand", [b["left_grip"][0], face_y, face_z], ""))
+    joints.append(joint("Bat", "LeftHand", bat_joint_offset(BAT), ""))
     return {
         "units": "cm",
         "euler_order": "ZYX",
@@ -139,7 +149,7 @@ def rig():
         },
         "wrist": {"joint": "LeftHand", "default_dof": 0},
         "feet": {"left": ["LeftFoot", "LeftToeBase"], "right": ["RightFoot", "RightToeBase"]},
-        "bat": b,
+        "bat": BAT,
         "ball": {"diameter": BALL_DIAMETER},
     }
 

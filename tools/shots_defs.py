@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from .shots_ik import perp, unit
+from .shots_keys import face_for_forearm
 
 V = lambda *a: np.array(a, float)
 FPS_KEYS = 30.0                   # the frame rate the keys near impact are placed on
@@ -127,7 +128,7 @@ def bat(grip=None, d=None, n=None, hit=None, x=None):
     if n is not None:
         k["bat_n"] = V(*n)
     elif x is not None:
-        k["bat_n"] = np.cross(-d, unit(perp(V(*x), d)))
+        k["bat_n"] = face_for_forearm(d, V(*x))
     else:
         k["bat_auto"] = True      # forearms point from the shoulders to the hands
     if hit is not None:

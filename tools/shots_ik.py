@@ -88,13 +88,28 @@ def two_bone(root: np.ndarray, target: np.ndarray, l1: float, l2: float,
     return root + a * u + h * k, reached, k
 
 
-# ----------------------------------------------------------------- the solver
+# ----------------------------------------------------------------- the grip
+# The bat's frame: X across the blade, Y the face normal, Z from the toe up the handle. The
+# keys give the bat's pose in the world (shots_keys.bat_frame); the rig's ``bat`` says how the
+# top hand holds it (``axis``, ``face_normal`` in LeftHand's frame), and nothing else here
+# assumes a grip.
 RIGHT_GRIP_EXT = -40.0     # deg, see PoseSolver.__init__
 RIGHT_GRIP_DEV = 60.0
 
+
+def grip_frame(rig) -> np.ndarray:
+    """The bat's frame in LeftHand's ``(3, 3)``: columns X = Y x Z, Y = ``face_normal``,
+    Z = -``axis`` (the rig's ``bat``; the two must be perpendicular unit vectors)."""
+    n = np.asarray(rig.bat["face_normal"], float)
+    z = -np.asarray(rig.bat["axis"], float)
+    if abs(np.linalg.norm(n) - 1.0) > 1e-6 or abs(np.linalg.norm(z) - 1.0) > 1e-6 or abs(n @ z) > 1e-6:
+        raise ValueError("rig bat: axis and face_normal must be perpendicular unit vectors")
+    return np.stack([np.cross(n, z), n, z], -1)
+
+
 def bat_from_grip(rig) -> np.ndarray:
-    """The Bat joint from the left grip ``(3,)`` cm, in LeftHand's frame."""
-    return rig.skeleton.offsets[rig.bat_joint] - np.asarray(rig.bat["left_grip"], float)
+    """The Bat joint from the left grip ``(3,)`` cm, in the bat's frame."""
+    return grip_frame(rig).T @ (rig.skeleton.offsets[rig.bat_joint] - np.asarray(rig.bat["left_grip"], float))
 
 
 class PoseSolver:
@@ -108,17 +123,17 @@ class PoseSolver:
         self.off = sk.offsets
         bat = rig.bat
         self.left_grip = np.array(bat["left_grip"], float)
-        self.axis = np.array(bat["axis"], float)
+        self.left_in_bat = grip_frame(rig).T             # LeftHand's rotation in the bat's frame
         self.bat_from_grip = bat_from_grip(rig)
         self.right_below = float(bat["right_grip_below_left"])
         # right palm centre in RightHand's frame: the mirror of the left grip
         self.right_grip = self.left_grip * np.array([-1.0, 1.0, 1.0])
-        # the right hand holds the handle palm-forward: its frame is the left
-        # hand's turned 180 degrees about the handle, then tilted so that the
-        # handle lies diagonally across the palm and fingers as in a real grip
-        # (wrist extended ~40, deviated ~60 toward the toe from square): the
-        # bottom forearm points more along the face normal than the top one
-        self.right_in_left = rot_axis(2, 180.0) @ rot_axis(1, -RIGHT_GRIP_DEV) @ rot_axis(2, -RIGHT_GRIP_EXT)
+        # the right hand holds the handle palm-forward: its frame is the bat's
+        # turned 180 degrees about the handle, then tilted so that the handle
+        # lies diagonally across the palm and fingers as in a real grip (wrist
+        # extended ~40, deviated ~60 toward the toe from square): the bottom
+        # forearm points more along the face normal than the top one
+        self.right_in_bat = rot_axis(2, 180.0) @ rot_axis(1, -RIGHT_GRIP_DEV) @ rot_axis(2, -RIGHT_GRIP_EXT)
 
     # ---- helpers
     def bone(self, name: str) -> float:
@@ -135,13 +150,14 @@ class PoseSolver:
     def hand_targets(self, grip: np.ndarray, bat_rot: np.ndarray):
         """Wrist positions and hand rotations of both hands from the bat pose.
 
-        ``grip``: left grip point (F,3); ``bat_rot``: LeftHand global rotation.
+        ``grip``: left grip point (F,3); ``bat_rot``: the bat's world frame (F,3,3).
         """
-        l_wrist = grip - bat_rot @ self.left_grip
-        r_rot = bat_rot @ self.right_in_left
-        r_grip = grip + bat_rot @ (self.axis * self.right_below)
+        l_rot = bat_rot @ self.left_in_bat
+        l_wrist = grip - l_rot @ self.left_grip
+        r_rot = bat_rot @ self.right_in_bat
+        r_grip = grip - bat_rot[..., 2] * self.right_below        # down the handle
         r_wrist = r_grip - r_rot @ self.right_grip
-        return l_wrist, bat_rot, r_wrist, r_rot
+        return l_wrist, l_rot, r_wrist, r_rot
 
     # ---- solve
     def solve(self, T: dict) -> tuple[np.ndarray, np.ndarray, dict]:
@@ -149,7 +165,7 @@ class PoseSolver:
 
         Keys of ``T`` (all per frame): hips_pos, hips_rot, chest_rot, head_rot,
         {l,r}_ankle, {l,r}_foot_rot, {l,r}_toe_bend (deg), {l,r}_knee_dir,
-        grip, bat_rot, wrist_pref (deg, radial deviation preferred), clavicle_gain.
+        grip, bat_rot (the bat's frame), wrist_pref (deg, radial deviation preferred), clavicle_gain.
         """
         ix = self.ix
         F = T["hips_pos"].shape[0]

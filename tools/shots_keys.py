@@ -22,12 +22,13 @@ from scipy.interpolate import PchipInterpolator
 
 from engine.rig import default_rig
 
-from .shots_ik import bat_from_grip, perp, rot_axis, unit, ypr
+from .shots_ik import bat_from_grip, grip_frame, perp, rot_axis, unit, ypr
 
 FPS = 30.0
 ANKLE_ABOVE_TOE = np.array([0.0, -6.0, 13.0])   # ToeBase offset under Foot (rig)
 GRIP_TO_TOE = 81.0                                # bat length 86 - grip_to_top 5
-BAT_FROM_GRIP = bat_from_grip(default_rig())      # Bat joint - left grip, in LeftHand frame
+BAT_FROM_GRIP = bat_from_grip(default_rig())      # Bat joint - left grip, in the bat's frame
+FOREARM_IN_BAT = grip_frame(default_rig())[0]     # LeftHand's X (the forearm's way) in the bat's frame
 
 VECTOR = {"hips_pos": 3, "hips_ypr": 3, "chest_ypr": 3, "look": 3, "l_toe": 3, "r_toe": 3,
           "l_yaw": 1, "r_yaw": 1, "l_heel": 1, "r_heel": 1, "grip": 3, "bat_d": 3, "bat_n": 3,
@@ -35,11 +36,22 @@ VECTOR = {"hips_pos": 3, "hips_ypr": 3, "chest_ypr": 3, "look": 3, "l_toe": 3, "
 
 
 def bat_frame(d: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """LeftHand world rotation ``(..., 3, 3)`` from the bat axis (exact) and face normal."""
+    """The bat's world frame ``(..., 3, 3)`` (shots_ik.grip_frame) from its axis ``d``
+    (handle -> toe, kept exactly) and face normal ``n``."""
     Z = -unit(d)
     Y = unit(perp(n, Z))
     X = np.cross(Y, Z)
     return np.stack([X, Y, Z], -1)
+
+
+def face_for_forearm(d: np.ndarray, x: np.ndarray, forearm_in_bat: np.ndarray = FOREARM_IN_BAT) -> np.ndarray:
+    """The face normal ``(3,)`` that turns the bat about its axis ``d`` so that the top
+    hand's forearm (LeftHand's X, ``forearm_in_bat`` in the bat's frame) points along ``x``
+    as nearly as the grip lets it: across the handle, exactly."""
+    u = unit(perp(np.asarray(x, float), d))
+    v = np.cross(-d, u)                       # (u, v, -d) right-handed, about the handle
+    phi = np.arctan2(forearm_in_bat[1], forearm_in_bat[0])
+    return np.sin(phi) * u + np.cos(phi) * v
 
 
 def grip_from_hit(hit, d, n) -> np.ndarray:
@@ -57,7 +69,7 @@ def resolve_bat_keys(keys: list, shoulders=None) -> list:
         if k.pop("bat_auto", False):
             d = unit(np.asarray(k["bat_d"], float))
             mid = shoulders(t).mean(0)
-            k["bat_n"] = np.cross(-d, unit(perp(np.asarray(k["grip"], float) - mid, d)))
+            k["bat_n"] = face_for_forearm(d, np.asarray(k["grip"], float) - mid)
         if "hit" in k:
             k["grip"] = grip_from_hit(k.pop("hit"), k["bat_d"], k["bat_n"])
         if "toe" in k:

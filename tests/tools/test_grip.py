@@ -1,0 +1,70 @@
+"""The authoring tools take the top hand's grip from the rig (``rig.bat``: ``axis`` and
+``face_normal`` in LeftHand's frame) and assume none of their own: turn the grip, and the
+keyed bat stays where it is while the hands move round it."""
+import numpy as np
+import pytest
+
+from engine.rig import default_rig
+from tools.make_rig import bat_joint_offset
+from tools.shots_ik import PoseSolver, bat_from_grip, grip_frame, perp, rot_axis, unit
+from tools.shots_keys import bat_frame, face_for_forearm
+
+
+def turned_rig(degrees: float):
+    """The bundled rig with the bat turned in the top hand about the palm's normal (LeftHand
+    Y): at 140 the toe leaves beyond the thumb, 50 deg from the fingers."""
+    rig = default_rig()
+    turn = rot_axis(1, degrees)
+    rig.bat = dict(rig.bat, axis=(turn @ np.asarray(rig.bat["axis"])).tolist(),
+                   face_normal=(turn @ np.asarray(rig.bat["face_normal"])).tolist())
+    rig.skeleton.offsets[rig.bat_joint] = bat_joint_offset(rig.bat)
+    return rig
+
+
+def keyed_bats(n: int = 6):
+    rng = np.random.default_rng(3)
+    d = np.array([unit(v) for v in rng.normal(size=(n, 3))])
+    face = np.array([perp(v, a) for v, a in zip(rng.normal(size=(n, 3)), d)])
+    return rng.uniform(-50, 50, (n, 3)), d, bat_frame(d, face)
+
+
+def test_the_rigs_bat_joint_is_where_the_grip_puts_the_ball():
+    rig = default_rig()
+    assert np.allclose(bat_joint_offset(rig.bat), rig.skeleton.offsets[rig.bat_joint])
+
+
+@pytest.mark.parametrize("degrees", [0.0, 140.0, -35.0])
+def test_a_turned_grip_moves_the_hands_not_the_bat(degrees):
+    rig, bundled = turned_rig(degrees), default_rig()
+    grip, d, B = keyed_bats()
+    l_wrist, l_rot, r_wrist, r_rot = PoseSolver(rig).hand_targets(grip, B)
+    # the top hand holds the bat as the rig says ...
+    assert np.allclose(l_rot @ np.asarray(rig.bat["axis"]), d, atol=1e-9)
+    assert np.allclose(l_rot @ np.asarray(rig.bat["face_normal"]), B[..., 1], atol=1e-9)
+    # ... so the Bat joint (LeftHand's child) lands where the keys put it, whatever the grip
+    bat_joint = l_wrist + l_rot @ rig.skeleton.offsets[rig.bat_joint]
+    assert np.allclose(bat_joint, grip + B @ bat_from_grip(bundled), atol=1e-9)
+    # and the bottom palm sits on the handle, its grip length further down
+    palm = r_wrist + r_rot @ (np.asarray(rig.bat["left_grip"]) * [-1.0, 1.0, 1.0])
+    assert np.allclose(palm, grip + d * rig.bat["right_grip_below_left"], atol=1e-9)
+    if degrees:
+        assert not np.allclose(l_rot, PoseSolver(bundled).hand_targets(grip, B)[1])
+
+
+@pytest.mark.parametrize("degrees", [0.0, 140.0])
+def test_the_face_for_a_forearm_points_the_top_forearm_that_way(degrees):
+    rig = turned_rig(degrees)
+    forearm_in_bat = grip_frame(rig)[0]
+    _, d, _ = keyed_bats()
+    for a, x in zip(d, np.random.default_rng(5).normal(size=(len(d), 3))):
+        n = face_for_forearm(a, x, forearm_in_bat)
+        hand_x = bat_frame(a, n) @ forearm_in_bat
+        assert abs(n @ a) < 1e-9
+        assert unit(perp(hand_x, a)) @ unit(perp(x, a)) > 1 - 1e-9
+
+
+def test_a_grip_whose_face_is_not_across_the_axis_is_refused():
+    rig = default_rig()
+    rig.bat = dict(rig.bat, face_normal=[0.0, 0.6, -0.8])
+    with pytest.raises(ValueError, match="perpendicular"):
+        grip_frame(rig)
