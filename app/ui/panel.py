@@ -290,7 +290,14 @@ def _impact_rows(r) -> list[tuple[str, str]]:
     return [("ball meets bat", f"{r.contact} (cos {r.face_to_ball:+.2f})"),
             ("face vs source", f"{r.face_angle_deg:.1f} deg"),
             ("ball goes to", f"{r.ball_azimuth_deg:+.0f} deg {field_region(r.ball_azimuth_deg)}"),
-            ("ball rises", f"{r.ball_elevation_deg:+.0f} deg")]
+            _elevation_row(r.ball_elevation_deg)]
+
+
+def _elevation_row(elevation_deg: float) -> tuple[str, str]:
+    """The ball's climb off the bat said as a batsman would: "rises 7 deg", "falls 18 deg"
+    (into the ground off a defensive bat), not "rises -18"."""
+    word = "rises" if elevation_deg >= 0.0 else "falls"
+    return ("ball " + word, f"{abs(elevation_deg):.0f} deg")
 
 
 def field_region(azimuth_deg: float) -> str:

@@ -3,7 +3,7 @@ ball goes) come from the update, in DESIGN.md's conventions."""
 import numpy as np
 import pytest
 
-from app.ui.panel import field_region
+from app.ui.panel import _elevation_row, field_region
 from app.viewer.settings import ViewerSettings
 from app.viewer.state import AppState
 from app.viewer.update import default_target, load_library, solve
@@ -39,6 +39,13 @@ def test_field_regions_follow_the_azimuth_convention():
     assert field_region(-70.0) == "mid-wicket" and field_region(-140.0) == "fine leg"
     assert field_region(179.0) == field_region(-181.0 + 360.0)
     assert field_region(540.0) == field_region(180.0)
+
+
+def test_the_balls_climb_reads_as_a_word_and_a_size():
+    """A ball going down off the bat "falls", never "rises -18"."""
+    assert _elevation_row(7.1) == ("ball rises", "7 deg")
+    assert _elevation_row(-18.4) == ("ball falls", "18 deg")
+    assert _elevation_row(0.0) == ("ball rises", "0 deg")
 
 
 def test_the_panel_twist_choice_reaches_the_engine(state):
