@@ -75,15 +75,22 @@ def joint(name, parent, offset, dof="", limits=None, end=None):
     return j
 
 
+def mirrored(s, z=None, y=None, x=None) -> dict:
+    """A joint's limits on side ``s`` (+1 left, -1 right) from the left side's ranges. The
+    mirror across the midplane (x -> -x) flips rotations about world Z and Y; a rotation
+    about X keeps its sign, as the frames are world-aligned (+x turns either thumb down from
+    the T-pose, and bends either hip or knee the same way)."""
+    f = (lambda r: r) if s > 0 else (lambda r: [-r[1], -r[0]])
+    out = {k: f(v) for k, v in (("z", z), ("y", y)) if v is not None}
+    if x is not None:
+        out["x"] = x
+    return out
+
+
 def side(prefix, s):
-    """Arm and leg joints; s = +1 for left (+X), -1 for right."""
+    """Arm joints; s = +1 for left (+X), -1 for right."""
     def lim(z, y, x):
-        # mirror across the midplane (x -> -x): rotations about world Z and Y flip sign on
-        # the right side; a rotation about X keeps it, as the frames are world-aligned (+x
-        # turns either thumb down from the T-pose: pronation, internal rotation)
-        f = (lambda r: r) if s > 0 else (lambda r: [-r[1], -r[0]])
-        out = {k: f(v) for k, v in (("z", z), ("y", y)) if v is not None}
-        return {**out, **({"x": x} if x is not None else {})}
+        return mirrored(s, z, y, x)
     L = prefix
     return [
         joint(f"{L}Shoulder", "Spine2", [3.0 * s, 12.0, 0.0], "zy", lim([-25, 35], [-30, 30], None)),
@@ -98,12 +105,7 @@ def side(prefix, s):
 
 def leg(prefix, s):
     def lim(z, y, x):
-        f = (lambda r: r) if s > 0 else (lambda r: [-r[1], -r[0]])
-        out = {}
-        if z is not None: out["z"] = f(z)
-        if y is not None: out["y"] = f(y)
-        if x is not None: out["x"] = x          # flexion is not mirrored
-        return out
+        return mirrored(s, z, y, x)
     L = prefix
     return [
         joint(f"{L}UpLeg", "Hips", [9.0 * s, -6.0, 0.0], "zyx", lim([-20, 60], [-70, 70], [-120, 45])),

@@ -112,6 +112,7 @@ def bat_from_grip(rig) -> np.ndarray:
     return grip_frame(rig).T @ (rig.skeleton.offsets[rig.bat_joint] - np.asarray(rig.bat["left_grip"], float))
 
 
+# ----------------------------------------------------------------- the solver
 class PoseSolver:
     """Turns world-space targets into local rotations for ``rig.skeleton``."""
 
