@@ -140,13 +140,17 @@ def aim(rig, shot, desired_hit_point, azimuth_deg: float, settings: AdaptSetting
                                     t_lo, t_hi)
             theta, grid = _minimise(lambda t: off_by(solve(t, tilt)[1], azimuth_deg, solve(t, tilt)[3]), lo, hi)
     adaptation, az, el, on_face = solve(theta, tilt)
-    reach = [solve(t, tilt)[1] for t in grid if solve(t, tilt)[3]] or [az]
+    # the range is sampled on the coarse grid; the refined answer can lie past its ends
+    # (the pull's face gives -135 deg between two samples that give -129 and the edge)
+    reach = [solve(t, tilt)[1] for t in grid if solve(t, tilt)[3]] + ([az] if on_face else [])
+    reach = reach or [az]
     turn = float(np.degrees(theta))
     out = Aim(adaptation, 0.0 if kept else turn, float(az), float(azimuth_deg),
               off_by(az, azimuth_deg, on_face) <= REACHED_DEG, (float(min(reach)), float(max(reach))),
               elevation_deg=float(el), tilt_deg=float(np.degrees(tilt)), yaw_deg=turn if kept else 0.0)
     if elevation_deg is not None:
-        ups = [solve(theta, u)[2] for u in tilts if solve(theta, u)[3]] or [el]
+        ups = [solve(theta, u)[2] for u in tilts if solve(theta, u)[3]] + ([el] if on_face else [])
+        ups = ups or [el]
         out.requested_elevation_deg = float(elevation_deg)
         out.elevation_reached = off_by(el, elevation_deg, on_face) <= REACHED_DEG
         out.elevation_range_deg = (float(min(ups)), float(max(ups)))
