@@ -217,10 +217,14 @@ class PoseSolver:
     def _choose_roll(self, g_rot, g_pos, T, pref):
         """Bat roll about its axis per frame ``(F,)`` degrees: Viterbi over the
         arms' best comfort cost, charged ``roll_weight * (roll / 20)^2``, 25 per rad^2
-        of roll from frame to frame, and a face turning over (``_flip_charge``)."""
+        of roll from frame to frame, a face turning over (``_flip_charge``), and each arm's
+        most comfortable elbow jumping round its circle between two rolls (``_elbow_charge``:
+        the arms' own pass cannot mend a pop whose other side is 50-85 deg past a wrist limit)."""
         psi = np.radians(np.arange(0, 360, 10.0))
         F = g_pos.shape[0]
         costs = np.zeros((F, len(self.ROLLS)))
+        elbows = {pre: np.zeros((F, len(self.ROLLS), 3)) for pre in ("Left", "Right")}
+        wrists = {}
         # the elbows keep out of the trunk, but not at the hit, where the face is keyed
         body = self._body(g_rot, g_pos, T, trunk_weight=np.isfinite(T["roll_weight"])[:, None])
         for k, r in enumerate(self.ROLLS):
@@ -230,7 +234,11 @@ class PoseSolver:
                 l2 = self.bone(pre + "ForeArmRoll") + self.bone(pre + "Hand")
                 ang = self._arm_angles(g_pos[:, self.ix[pre + "Arm"]], w, hr,
                                        g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
-                costs[:, k] += self._arm_cost(ang, pre, s, pr[:, None], body).min(1)
+                arm_cost = self._arm_cost(ang, pre, s, pr[:, None], body)
+                costs[:, k] += arm_cost.min(1)
+                elbows[pre][:, k] = ang["elbow"][np.arange(F), arm_cost.argmin(1)]
+                if r == 0.0:
+                    wrists[pre] = w
                 # an arm folded shut: the roll carried the hand round the handle to its shoulder
                 fold = np.maximum(0.0, self.FOLD_CM - np.linalg.norm(w - g_pos[:, self.ix[pre + "Arm"]], axis=-1))
                 costs[:, k] += self.FOLD_WEIGHT * fold ** 2
@@ -242,6 +250,9 @@ class PoseSolver:
         costs[near] = np.where(self.ROLLS == 0.0, costs[near], np.inf)
         costs[[0, -1]] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
         extra = self._flip_charge(T["bat_rot"]) + self._speed_charge(T["grip"], T["bat_rot"])
+        for pre in ("Left", "Right"):
+            extra = extra + self._elbow_charge(elbows[pre], wrists[pre], g_pos[:, self.ix[pre + "Arm"]],
+                                               self.ROLL_ELBOW_WEIGHT)
         return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0, extra=extra)]
 
     FOLD_CM = 27.0          # make_shots.unfold's d_min: an elbow past ~135 degrees
@@ -331,15 +342,19 @@ class PoseSolver:
 
     ELBOW_SLACK_CM = 3.0    # an elbow may outpace its wrist and shoulder by this much a frame
     ELBOW_WEIGHT = 3.0      # per cm^2 beyond: at 10 the drives clamp 7-10 deg into the limits instead
+    # in the roll's pass, per cm^2: at 0.6 the elbows' excess over 5 cm a frame falls 1550 ->
+    # 1205 cm summed over the library (over 20 cm: 46 -> 36 arm-frames); at 0.9 the back-foot
+    # defence's blade jerks harder than its swing, at 3 the wrists clamp 13-16 deg
+    ROLL_ELBOW_WEIGHT = 0.6
 
-    def _elbow_charge(self, elbows, wrist, shoulder):
+    def _elbow_charge(self, elbows, wrist, shoulder, weight=None):
         """Transition charges ``(F-1, K, K)`` from elbow circle angle i at frame f to j at
         f + 1: an elbow that moves further in a frame than its wrist or its shoulder (plus
         ELBOW_SLACK_CM) swings round the shoulder-wrist line, a pop through the body the
         viewer shows (up to 45 cm in one frame before this charge)."""
         step = np.maximum(np.linalg.norm(np.diff(wrist, axis=0), axis=-1),
                           np.linalg.norm(np.diff(shoulder, axis=0), axis=-1)) + self.ELBOW_SLACK_CM
-        return step_charge(elbows, step, self.ELBOW_WEIGHT)
+        return step_charge(elbows, step, self.ELBOW_WEIGHT if weight is None else weight)
 
     def _arm_angles(self, S, W, hand_rot, parent, l1, l2, s, psi):
         """Joint angles for elbow circle angles ``psi (F or 1, K)``: dict of (F, K, ...) arrays."""

@@ -75,6 +75,7 @@ def test_the_face_never_flips_over_between_two_frames(shots, rig):
 
 
 SLOW_WRIST_CM = 5.0     # a wrist slower than 1.5 m/s: no swing to hide a pop in
+BIG_POP_CM = 20.0       # an elbow 20 cm past its wrist in one frame: the whole arm flips
 
 
 def test_elbows_seldom_swing_round_the_arm(shots, rig):
@@ -85,15 +86,18 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
     some more where the upper arm would otherwise lie past the shoulder's ranges
     (test_upper_arms_stay_in_the_shoulders_horizontal_range and
     test_the_humerus_seldom_turns_past_its_axial_range): 80 before those charges, 93 after,
-    all but 26 with the wrist moving fast (29 before)."""
+    all but 26 with the wrist moving fast (29 before). Charged in the bat roll's pass too
+    (tools/shots_ik._choose_roll), the large ones (over BIG_POP_CM) fell 46 -> 36 and all 95 -> 83."""
     from tools.shots_check import POP_CM, elbow_excess
-    pops, slow_pops = [], []
+    pops, slow_pops, big_pops = [], [], []
     for s in shots:
         for side in ("Left", "Right"):
             excess, wrist = elbow_excess(rig, s.fk[1], side)
             pops += [(s.name, side, int(f)) for f in np.nonzero(excess > POP_CM)[0]]
             slow_pops += [(s.name, side, int(f)) for f in np.nonzero((excess > POP_CM) & (wrist < SLOW_WRIST_CM))[0]]
-    assert len(pops) <= 100, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
+            big_pops += [(s.name, side, int(f)) for f in np.nonzero(excess > BIG_POP_CM)[0]]
+    assert len(pops) <= 90, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
+    assert len(big_pops) <= 40, f"{len(big_pops)} pop over {BIG_POP_CM:.0f} cm (4c83454: 46): {big_pops[:12]}"
     assert len(slow_pops) <= 30, f"{len(slow_pops)} pop while the wrist is slow (eeb3a88: 83): {slow_pops[:12]}"
 
 
