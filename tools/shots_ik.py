@@ -217,13 +217,15 @@ class PoseSolver:
     def _choose_roll(self, g_rot, g_pos, T, pref):
         """Bat roll about its axis per frame ``(F,)`` degrees: Viterbi over the
         arms' best comfort cost, charged ``roll_weight * (roll / 20)^2``, 25 per rad^2
-        of roll from frame to frame, a face turning over (``_flip_charge``), and each arm's
-        most comfortable elbow jumping round its circle between two rolls (``_elbow_charge``:
-        the arms' own pass cannot mend a pop whose other side is 50-85 deg past a wrist limit)."""
+        of roll from frame to frame, a face turning over (``_flip_charge``), and what keeping
+        each arm's elbow from popping between two rolls costs it (``continuity_charge``: the
+        arms' own pass cannot mend a pop whose other side is 50-85 deg past a wrist limit)."""
         psi = np.radians(np.arange(0, 360, 10.0))
         F = g_pos.shape[0]
         costs = np.zeros((F, len(self.ROLLS)))
-        elbows = {pre: np.zeros((F, len(self.ROLLS), 3)) for pre in ("Left", "Right")}
+        K = len(self.ROLLS)
+        arm_costs = {pre: np.zeros((F, K, len(psi))) for pre in ("Left", "Right")}
+        elbows = {pre: np.zeros((F, K, len(psi), 3)) for pre in ("Left", "Right")}
         wrists = {}
         # the elbows keep out of the trunk, but not at the hit, where the face is keyed
         body = self._body(g_rot, g_pos, T, trunk_weight=np.isfinite(T["roll_weight"])[:, None])
@@ -234,9 +236,9 @@ class PoseSolver:
                 l2 = self.bone(pre + "ForeArmRoll") + self.bone(pre + "Hand")
                 ang = self._arm_angles(g_pos[:, self.ix[pre + "Arm"]], w, hr,
                                        g_rot[:, self.ix[pre + "Shoulder"]], l1, l2, s, psi[None, :])
-                arm_cost = self._arm_cost(ang, pre, s, pr[:, None], body)
-                costs[:, k] += arm_cost.min(1)
-                elbows[pre][:, k] = ang["elbow"][np.arange(F), arm_cost.argmin(1)]
+                arm_costs[pre][:, k] = self._arm_cost(ang, pre, s, pr[:, None], body)
+                costs[:, k] += arm_costs[pre][:, k].min(1)
+                elbows[pre][:, k] = ang["elbow"]
                 if r == 0.0:
                     wrists[pre] = w
                 # an arm folded shut: the roll carried the hand round the handle to its shoulder
@@ -251,8 +253,8 @@ class PoseSolver:
         costs[[0, -1]] = np.where(self.ROLLS == 0.0, 0.0, np.inf)
         extra = self._flip_charge(T["bat_rot"]) + self._speed_charge(T["grip"], T["bat_rot"])
         for pre in ("Left", "Right"):
-            extra = extra + self._elbow_charge(elbows[pre], wrists[pre], g_pos[:, self.ix[pre + "Arm"]],
-                                               self.ROLL_ELBOW_WEIGHT)
+            allowed = self._elbow_step(wrists[pre], g_pos[:, self.ix[pre + "Arm"]])
+            extra = extra + continuity_charge(arm_costs[pre], elbows[pre], allowed, self.ELBOW_WEIGHT)
         return self.ROLLS[viterbi(costs, np.radians(self.ROLLS), weight=25.0, extra=extra)]
 
     FOLD_CM = 27.0          # make_shots.unfold's d_min: an elbow past ~135 degrees
@@ -342,19 +344,18 @@ class PoseSolver:
 
     ELBOW_SLACK_CM = 3.0    # an elbow may outpace its wrist and shoulder by this much a frame
     ELBOW_WEIGHT = 3.0      # per cm^2 beyond: at 10 the drives clamp 7-10 deg into the limits instead
-    # in the roll's pass, per cm^2: at 0.6 the elbows' excess over 5 cm a frame falls 1550 ->
-    # 1205 cm summed over the library (over 20 cm: 46 -> 36 arm-frames); at 0.9 the back-foot
-    # defence's blade jerks harder than its swing, at 3 the wrists clamp 13-16 deg
-    ROLL_ELBOW_WEIGHT = 0.6
 
-    def _elbow_charge(self, elbows, wrist, shoulder, weight=None):
-        """Transition charges ``(F-1, K, K)`` from elbow circle angle i at frame f to j at
-        f + 1: an elbow that moves further in a frame than its wrist or its shoulder (plus
-        ELBOW_SLACK_CM) swings round the shoulder-wrist line, a pop through the body the
-        viewer shows (up to 45 cm in one frame before this charge)."""
-        step = np.maximum(np.linalg.norm(np.diff(wrist, axis=0), axis=-1),
+    def _elbow_step(self, wrist, shoulder):
+        """How far ``(F-1,)`` cm an elbow may move between two frames: as far as its wrist or
+        its shoulder, plus ELBOW_SLACK_CM; further, it swings round the shoulder-wrist line,
+        a pop through the body the viewer shows (up to 45 cm in one frame before it was charged)."""
+        return np.maximum(np.linalg.norm(np.diff(wrist, axis=0), axis=-1),
                           np.linalg.norm(np.diff(shoulder, axis=0), axis=-1)) + self.ELBOW_SLACK_CM
-        return step_charge(elbows, step, self.ELBOW_WEIGHT if weight is None else weight)
+
+    def _elbow_charge(self, elbows, wrist, shoulder):
+        """Transition charges ``(F-1, K, K)`` from elbow circle angle i at frame f to j at
+        f + 1: ELBOW_WEIGHT per cm^2 the elbow moves beyond ``_elbow_step``."""
+        return step_charge(elbows, self._elbow_step(wrist, shoulder), self.ELBOW_WEIGHT)
 
     def _arm_angles(self, S, W, hand_rot, parent, l1, l2, s, psi):
         """Joint angles for elbow circle angles ``psi (F or 1, K)``: dict of (F, K, ...) arrays."""
@@ -432,6 +433,25 @@ def step_charge(points: np.ndarray, allowed: np.ndarray, weight: float) -> np.nd
     ``allowed (F-1,)`` cm."""
     moved = np.linalg.norm(points[1:, None, :] - points[:-1, :, None], axis=-1)          # (F-1, from, to)
     return weight * np.maximum(0.0, moved - allowed[:, None, None]) ** 2
+
+
+def continuity_charge(cost: np.ndarray, points: np.ndarray, allowed: np.ndarray, weight: float) -> np.ndarray:
+    """Transition charges ``(F-1, K, K)`` between states whose sub-choices (``cost (F, K, P)``,
+    candidate points ``(F, K, P, 3)``) are made per frame: what moving from state i at frame f
+    to j at f + 1 with its sub-choices continuous (``weight`` per cm^2 a point moves further
+    than ``allowed (F-1,)``) costs beyond taking each frame's best sub-choice."""
+    F, K, P = cost.shape
+    out = np.zeros((F - 1, K, K))
+    best = cost.min(2)
+    flat, pts = cost.reshape(F, K * P), points.reshape(F, K * P, 3)
+    sq = np.einsum("fnd,fnd->fn", pts, pts)
+    for f in range(F - 1):
+        # |a - b|^2 by one matrix product: (K*P)^2 pairs a frame
+        d2 = sq[f][:, None] + sq[f + 1][None, :] - 2.0 * pts[f] @ pts[f + 1].T
+        tot = 0.5 * flat[f][:, None] + 0.5 * flat[f + 1][None, :] \
+            + weight * np.maximum(0.0, np.sqrt(np.maximum(d2, 0.0)) - allowed[f]) ** 2
+        out[f] = tot.reshape(K, P, K, P).min(axis=(1, 3)) - 0.5 * best[f][:, None] - 0.5 * best[f + 1][None, :]
+    return out
 
 
 def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float, extra=None) -> np.ndarray:

@@ -275,9 +275,9 @@ def test_the_authoring_check_finds_a_back_of_the_bat_hit():
 
 
 FOLDED_CM = 20.0            # a wrist this near its shoulder: the elbow bent past ~140 degrees
-FOLDED_FRAMES = 28          # arm-frames over the library (52 before the roll choice charged a fold, 14 at 078b55c;
+FOLDED_FRAMES = 25          # arm-frames over the library (52 before the roll choice charged a fold, 14 at 078b55c;
                             # 23 since the shoulder's ranges are charged: 14-20 cm, mostly in follow-throughs;
-                            # 24 -> 26 since the roll's choice charges elbow pops: over 20 cm, 46 -> 36)
+                            # 24 -> 22 since the roll's choice charges what a continuous elbow costs)
 
 
 def test_arms_rarely_fold_shut(shots, rig):
