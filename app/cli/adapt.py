@@ -12,7 +12,7 @@ import typer
 
 from app.errors import UserError, cli_errors, number, position, shorten
 from app.errors import falloff as falloff_cm
-from engine import choice
+from engine import choice, field
 from engine.export import EXTENSIONS, write_take
 from engine.library import find_shot
 from engine.userlib import load_shots
@@ -98,8 +98,10 @@ def _summary(rig, shot, a, target, aimed) -> dict:
     if "face_normal" in rig.bat:
         out.update(hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START,
                                a.desired_hit_point))
+        out["ball_region"] = field.region(out["ball_azimuth_deg"])
     if aimed is not None:
-        out.update({"direction_requested_deg": round(aimed.requested_deg, 2), "direction_reached": aimed.reached,
+        out.update({"direction_requested_deg": round(aimed.requested_deg, 2),
+                    "direction_requested_region": field.region(aimed.requested_deg), "direction_reached": aimed.reached,
                     "direction_range_deg": [round(v, 1) for v in aimed.range_deg],
                     "face_yaw_deg": round(aimed.yaw_deg, 2), "forearm_twist_deg": round(aimed.twist_deg, 2)})
     if aimed is not None and aimed.requested_elevation_deg is not None:
@@ -250,12 +252,26 @@ def parse_args(args: list[str]) -> dict:
         if out["twist"] not in TWISTS:
             raise UserError(f"--twist must be one of {', '.join(TWISTS)}, got {shorten(out['twist'])!r}")
     if "--direction" in got:
-        out["direction"] = number("--direction", got["--direction"][0], -180.0, 180.0)
+        out["direction"] = direction_arg(got["--direction"][0])
     if "--elevation" in got:
         out["elevation"] = number("--elevation", got["--elevation"][0], -90.0, 90.0)
     if "--out" in got:
         out["out"] = Path(got["--out"][0])
     return out
+
+
+def direction_arg(text: str) -> float:
+    """--direction: degrees (0 straight back past the bowler, + toward the off side), or a
+    fielding position's name ("mid-off", "square-leg": engine.field.POSITIONS)."""
+    try:
+        float(text)
+    except ValueError:
+        try:
+            return field.position_azimuth(text)
+        except ValueError:
+            raise UserError(f"--direction: {shorten(text)!r} is neither degrees nor a fielding position "
+                            f"({', '.join(field.POSITIONS)})") from None
+    return number("--direction", text, -180.0, 180.0)
 
 
 def capture_args(got: dict) -> dict:
@@ -303,10 +319,11 @@ def register(cli: typer.Typer) -> None:
                               twist (follow, default: the face stays square) or
                               are turned by CCD too (lead, the dissertation's)
           --direction AZ      send the ball this way (deg; 0 straight back past the
-                              bowler, + toward the off side) by turning the kept
-                              face about the vertical at the hit; out of
-                              the shot's reach: the closest it gives, and
-                              direction_reached false in the JSON
+                              bowler, + toward the off side, or a fielding
+                              position: mid-off, cover, point, square-leg, ...)
+                              by turning the kept face about the vertical at
+                              the hit; out of the shot's reach: the closest it
+                              gives, and direction_reached false in the JSON
           --elevation EL      with --direction: and this far up (deg above the
                               ground) by tilting the bat face; out of reach: the
                               closest, elevation_reached false and

@@ -15,6 +15,7 @@ from app.ui.wagonwheel import draw_wagon_wheel
 from app.ui.padwidget import draw_pc_pad
 from app.viewer.requests import Requests
 from app.viewer.state import AppState
+from engine import field
 
 PANEL_WIDTH = 360
 VIEWPORT_SHOWS = {"pc pad": "PC pad pose", "adapted": "adapted shot", "source": "source shot"}
@@ -289,7 +290,7 @@ def _impact_rows(r) -> list[tuple[str, str]]:
         return []
     return [("ball meets bat", f"{r.contact} (cos {r.face_to_ball:+.2f})"),
             ("face vs source", f"{r.face_angle_deg:.1f} deg"),
-            ("ball goes to", f"{r.ball_azimuth_deg:+.0f} deg {field_region(r.ball_azimuth_deg)}"),
+            ("ball goes to", f"{r.ball_azimuth_deg:+.0f} deg {field.region(r.ball_azimuth_deg)}"),
             _elevation_row(r.ball_elevation_deg)]
 
 
@@ -298,18 +299,6 @@ def _elevation_row(elevation_deg: float) -> tuple[str, str]:
     (into the ground off a defensive bat), not "rises -18"."""
     word = "rises" if elevation_deg >= 0.0 else "falls"
     return ("ball " + word, f"{abs(elevation_deg):.0f} deg")
-
-
-def field_region(azimuth_deg: float) -> str:
-    """A right-hander's fielding region for a ball's azimuth (0 straight back past the
-    bowler, positive toward the off side)."""
-    a = (azimuth_deg + 180.0) % 360.0 - 180.0
-    for limit, name in ((-160, "behind, leg side"), (-115, "fine leg"), (-80, "square leg"),
-                        (-25, "mid-wicket"), (-8, "mid-on"), (8, "straight"), (25, "mid-off"),
-                        (75, "cover"), (110, "point"), (160, "third man")):
-        if a < limit:
-            return name
-    return "behind, off side"
 
 
 def _blend_plot(settings: ViewerSettings, state: AppState) -> None:

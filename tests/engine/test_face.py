@@ -359,6 +359,14 @@ def test_a_requested_elevation_is_met_by_the_face_tilt(rig, library):
     assert high.elevation_deg == pytest.approx(high.elevation_range_deg[1], abs=3.0)
 
 
+def test_adapt_cli_takes_a_fielding_position():
+    """"cover drive, hit it to mid-off": the ball goes to mid-off with the face."""
+    from engine import field
+    d = json.loads(_cli("adapt", "--shot", "cover_drive", "--hit", "-40.6", "29.6", "205", "--direction", "mid-off"))
+    assert d["direction_requested_deg"] == field.POSITIONS["mid-off"] and d["direction_reached"]
+    assert d["ball_region"] == d["direction_requested_region"] == "mid-off" and d["contact"] == "face"
+
+
 def test_adapt_cli_elevation_json_and_bad_input():
     d = json.loads(_cli("adapt", "--shot", "straight_drive", "--hit", "-12", "35", "212", "--direction", "15",
                         "--elevation", "0"))
@@ -367,7 +375,8 @@ def test_adapt_cli_elevation_json_and_bad_input():
     from typer.testing import CliRunner
     from app.cli import cli
     for bad in (["--elevation", "10"], ["--direction", "10", "--elevation", "91"],
-                ["--direction", "10", "--elevation", "nan"]):
+                ["--direction", "10", "--elevation", "nan"], ["--direction", "silly point"],
+                ["--direction", "181"]):
         r = CliRunner().invoke(cli, ["adapt", "--shot", "straight_drive", "--hit", "0", "30", "210", *bad])
         assert r.exit_code == 2 and r.stderr.startswith("error:") and "Traceback" not in r.stderr, r.stderr
 

@@ -3,7 +3,7 @@ ball goes) come from the update, in DESIGN.md's conventions."""
 import numpy as np
 import pytest
 
-from app.ui.panel import _elevation_row, field_region
+from app.ui.panel import _elevation_row
 from app.viewer.settings import ViewerSettings
 from app.viewer.state import AppState
 from app.viewer.update import default_target, load_library, solve
@@ -30,15 +30,6 @@ def test_each_shot_at_its_own_hit_point_keeps_its_face(state, name):
     first_step = state.flight[1] - state.flight[0]
     azimuth = np.degrees(np.arctan2(-first_step[0], first_step[2]))
     assert abs((azimuth - r.ball_azimuth_deg + 180) % 360 - 180) < 1.0
-
-
-def test_field_regions_follow_the_azimuth_convention():
-    """0 straight back past the bowler, positive toward the off side (DESIGN.md)."""
-    assert field_region(0.0) == "straight"
-    assert field_region(60.0) == "cover" and field_region(90.0) == "point"
-    assert field_region(-70.0) == "mid-wicket" and field_region(-140.0) == "fine leg"
-    assert field_region(179.0) == field_region(-181.0 + 360.0)
-    assert field_region(540.0) == field_region(180.0)
 
 
 def test_the_balls_climb_reads_as_a_word_and_a_size():
