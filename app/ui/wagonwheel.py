@@ -13,6 +13,8 @@ import math
 
 from imgui_bundle import imgui
 
+from engine import field
+
 WHEEL_PX = (120.0, 220.0)        # the wheel's size range in the panel
 FACE_RGBA = (0.35, 0.85, 0.40, 1.0)
 MISS_RGBA = (0.95, 0.35, 0.30, 1.0)
@@ -82,7 +84,9 @@ def _ask(settings, centre, radius) -> None:
             settings.aim_direction = True
             settings.direction = round(azimuth_of(centre, m.x, m.y), 1)
     if imgui.is_item_hovered():
-        imgui.set_tooltip("click or drag: hit the ball this way; right click: as the shot goes")
+        m = imgui.get_mouse_pos()
+        where = field.region(azimuth_of(centre, m.x, m.y))
+        imgui.set_tooltip(f"click or drag: hit the ball this way ({where}); right click: as the shot goes")
         if imgui.is_mouse_clicked(imgui.MouseButton_.right):
             settings.aim_direction = False
 
@@ -92,9 +96,11 @@ def _caption(settings, r) -> None:
         imgui.text_disabled(f"source goes {r.source_azimuth_deg:+.0f} deg; click the wheel to aim")
         return
     if r.aim_reached is None:
-        imgui.text(f"asked {settings.direction:+.0f} deg: aiming when the target holds still")
+        imgui.text_wrapped(f"asked {settings.direction:+.0f} deg ({field.region(settings.direction)}): "
+                           "aiming when the target holds still")
         return
-    _outcome(f"asked {settings.direction:+.0f} deg, goes {r.ball_azimuth_deg:+.0f}", r.aim_range_deg, r.aim_reached)
+    _outcome(f"asked {settings.direction:+.0f} deg ({field.region(settings.direction)}), "
+             f"goes {r.ball_azimuth_deg:+.0f}", r.aim_range_deg, r.aim_reached)
 
 
 def _outcome(text: str, reach: tuple, reached: bool) -> None:
@@ -102,9 +108,11 @@ def _outcome(text: str, reach: tuple, reached: bool) -> None:
     lo, hi = reach or (float("nan"), float("nan"))
     text = f"{text} (reach {lo:+.0f}..{hi:+.0f})"
     if reached:
-        imgui.text(text)
+        imgui.text_wrapped(text)
     else:
-        imgui.text_colored(imgui.ImVec4(*MISS_RGBA), text + ": closest it gives")
+        imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(*MISS_RGBA))
+        imgui.text_wrapped(text + ": closest it gives")
+        imgui.pop_style_color()
 
 
 def _elevation(settings, r) -> None:
