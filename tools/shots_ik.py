@@ -403,7 +403,10 @@ class PoseSolver:
                 "trunk_weight": trunk_weight, "shoulder_weight": np.where(contact[:, None], 0.0, trunk_weight)}
 
     SHOULDER_DEG = 15.0     # past the horizontal range by this much costs as much as 1 deg past a joint limit
-    AXIAL_DEG = 20.0        # turned past AAOS's humeral rotation by this much, the same
+    # turned past AAOS's humeral rotation by this much, the same: at 20 (before the roll's pass
+    # charged continuous elbows) 99 arm-frames lay 30 deg or more past; at 14, 77, and the elbow
+    # pops fell too (93 -> 81); at 10, 55, but 44 pops over 20 cm and 29 folded arms
+    AXIAL_DEG = 14.0
 
     def _arm_cost(self, ang, pre, s, pref, body=None):
         lim = self.rig.limits
