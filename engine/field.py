@@ -7,6 +7,8 @@ named position lies, for ``hitpoint adapt --direction mid-off``.
 """
 from __future__ import annotations
 
+from .face import wrap_deg
+
 # (upper azimuth limit, region) from the leg side round to the off side; past the last
 # limit, "behind, off side"
 REGIONS = ((-160.0, "behind, leg side"), (-115.0, "fine leg"), (-80.0, "square leg"),
@@ -23,14 +25,9 @@ POSITIONS = {
 }
 
 
-def wrap(azimuth_deg: float) -> float:
-    """The azimuth in [-180, 180)."""
-    return (float(azimuth_deg) + 180.0) % 360.0 - 180.0
-
-
 def region(azimuth_deg: float) -> str:
     """The fielding region a ball going ``azimuth_deg`` lands in."""
-    a = wrap(azimuth_deg)
+    a = float(wrap_deg(azimuth_deg))
     for limit, name in REGIONS:
         if a < limit:
             return name

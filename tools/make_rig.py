@@ -48,6 +48,7 @@ Not yet anatomical (issue 14, see the shots' report):
   each: the bat's poses in the backlifts and follow-throughs ask for up to 150-180.
 """
 import json
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -89,8 +90,7 @@ def mirrored(s, z=None, y=None, x=None) -> dict:
 
 def side(prefix, s):
     """Arm joints; s = +1 for left (+X), -1 for right."""
-    def lim(z, y, x):
-        return mirrored(s, z, y, x)
+    lim = partial(mirrored, s)
     L = prefix
     return [
         joint(f"{L}Shoulder", "Spine2", [3.0 * s, 12.0, 0.0], "zy", lim([-25, 35], [-30, 30], None)),
@@ -104,8 +104,7 @@ def side(prefix, s):
 
 
 def leg(prefix, s):
-    def lim(z, y, x):
-        return mirrored(s, z, y, x)
+    lim = partial(mirrored, s)
     L = prefix
     return [
         joint(f"{L}UpLeg", "Hips", [9.0 * s, -6.0, 0.0], "zyx", lim([-20, 60], [-70, 70], [-120, 45])),

@@ -222,11 +222,12 @@ class PoseSolver:
         arms' own pass cannot mend a pop whose other side is 50-85 deg past a wrist limit)."""
         psi = np.radians(np.arange(0, 360, 10.0))
         F = g_pos.shape[0]
-        costs = np.zeros((F, len(self.ROLLS)))
         K = len(self.ROLLS)
+        costs = np.zeros((F, K))
         arm_costs = {pre: np.zeros((F, K, len(psi))) for pre in ("Left", "Right")}
         elbows = {pre: np.zeros((F, K, len(psi), 3)) for pre in ("Left", "Right")}
-        wrists = {}
+        keyed = self.hand_targets(T["grip"], T["bat_rot"])
+        wrists = {"Left": keyed[0], "Right": keyed[2]}      # at the keyed roll: how fast the hands go
         # the elbows keep out of the trunk, but not at the hit, where the face is keyed
         body = self._body(g_rot, g_pos, T, trunk_weight=np.isfinite(T["roll_weight"])[:, None])
         for k, r in enumerate(self.ROLLS):
@@ -239,8 +240,6 @@ class PoseSolver:
                 arm_costs[pre][:, k] = self._arm_cost(ang, pre, s, pr[:, None], body)
                 costs[:, k] += arm_costs[pre][:, k].min(1)
                 elbows[pre][:, k] = ang["elbow"]
-                if r == 0.0:
-                    wrists[pre] = w
                 # an arm folded shut: the roll carried the hand round the handle to its shoulder
                 fold = np.maximum(0.0, self.FOLD_CM - np.linalg.norm(w - g_pos[:, self.ix[pre + "Arm"]], axis=-1))
                 costs[:, k] += self.FOLD_WEIGHT * fold ** 2
