@@ -208,9 +208,35 @@ class PoseSolver:
             l_wrist, l_rot, r_wrist, r_rot = self.hand_targets(T["grip"], T["bat_rot"])
         info["bat_rot"] = T["bat_rot"]
         body = self._body(g_rot, g_pos, T, trunk_weight=4.0)
-        for pre, wrist, hrot, s, pr in (("Left", l_wrist, l_rot, 1.0, pref), ("Right", r_wrist, r_rot, -1.0, 0 * pref)):
-            info[pre + "_reach"] = self._arm(L, g_rot, g_pos, pre, wrist, hrot, s, pr, body)
+        info["Left_reach"] = self._arm(L, g_rot, g_pos, "Left", [l_wrist], [l_rot], 1.0, pref, body)[0]
+        turned = [self._turned_right_hand(r_wrist, r_rot, t) for t in self.GRIP_TURNS]
+        info["Right_reach"], turn = self._arm(L, g_rot, g_pos, "Right", *zip(*turned), -1.0, 0 * pref, body,
+                                              self._turn_cost())
+        info["right_grip_turn"] = self.GRIP_TURNS[turn]
         return T["hips_pos"], quat.make_continuous(to_q(L)), info
+
+    # The bottom hand holds the handle loosely (the coaches' thumb-and-forefinger bottom hand):
+    # it may turn about the handle, which the top hand may not (the bat is the top hand's).
+    # Where the keyed bat turns the hands faster than the bottom arm's limits follow, the
+    # turn lets its elbow stay on its side instead of swinging round the arm.
+    GRIP_TURNS = np.array([0.0, -15.0, 15.0, -30.0, 30.0])   # deg about the handle; the keyed grip first
+    GRIP_TURN_DEG = 15.0    # a turn this far costs as much as the wrist 20 deg off its preference
+    GRIP_STEP_WEIGHT = 5.0  # per (7.5 deg)^2 the turn changes between frames
+    GRIP_STEP_DEG = 30.0    # and no faster than this a frame (900 deg/s): faster, the glove spins
+
+    def _turned_right_hand(self, wrist, hand_rot, turn: float):
+        """The right wrist ``(F, 3)`` and hand rotation ``(F, 3, 3)`` turned ``turn`` degrees
+        about the handle (the bat's Z) from ``wrist``, ``hand_rot``: the palm stays on it."""
+        bat_rot = hand_rot @ self.right_in_bat.T
+        turned = bat_rot @ rot_axis(2, turn) @ self.right_in_bat
+        return wrist + (hand_rot - turned) @ self.right_grip, turned
+
+    def _turn_cost(self):
+        """(cost of each grip turn ``(G,)``, charge between turns ``(G, G)``) for ``_arm``."""
+        t = self.GRIP_TURNS
+        step = np.abs(t[:, None] - t[None, :])
+        return (t / self.GRIP_TURN_DEG) ** 2, (self.GRIP_STEP_WEIGHT * (step / 7.5) ** 2
+                                               + 1e4 * np.maximum(0.0, step - self.GRIP_STEP_DEG) ** 2)
 
     ROLLS = np.arange(-180.0, 180.0, 7.5)     # the full circle: a follow-through may turn the face over
 
@@ -219,7 +245,8 @@ class PoseSolver:
         arms' best comfort cost, charged ``roll_weight * (roll / 20)^2``, 25 per rad^2
         of roll from frame to frame, a face turning over (``_flip_charge``), and what keeping
         each arm's elbow from popping between two rolls costs it (``continuity_charge``: the
-        arms' own pass cannot mend a pop whose other side is 50-85 deg past a wrist limit)."""
+        arms' own pass cannot mend a pop whose other side is 50-85 deg past a wrist limit).
+        It plans with the keyed grip; the arms' pass may then turn the bottom hand (GRIP_TURNS)."""
         psi = np.radians(np.arange(0, 360, 10.0))
         F = g_pos.shape[0]
         K = len(self.ROLLS)
@@ -312,13 +339,16 @@ class PoseSolver:
         y = np.clip(-s * gain * 0.5 * prot, *lim[1])
         L[:, c] = rot_axis(2, z) @ rot_axis(1, y)
 
-    def _arm(self, L, g_rot, g_pos, pre, wrist, hand_rot, s, pref, body):
+    def _arm(self, L, g_rot, g_pos, pre, wrists, hand_rots, s, pref, body, turn_cost=None):
         """Two-bone arm: Arm(z,y)+ArmRoll(x) swing/twist, ForeArm pure y, ForeArmRoll x, Hand (z,y).
 
         The elbow may sit anywhere on its circle of solutions; a Viterbi pass
-        over 72 elbow angles per frame picks the path whose joint angles stay
-        comfortably inside the limits (wrist near its preferred deviation,
-        small twists) and that moves smoothly from frame to frame.
+        over 72 elbow angles per frame, and over the hand's candidate poses (``wrists``,
+        ``hand_rots``: G of ``(F, 3)`` and ``(F, 3, 3)``; ``turn_cost``: their costs ``(G,)``
+        and the charges ``(G, G)`` between them, for G > 1), picks the path whose joint angles
+        stay comfortably inside the limits (wrist near its preferred deviation, small twists)
+        and that moves smoothly from frame to frame. Returns (reach ``(F,)``: wrist distance
+        over arm length, the hand pose chosen ``(F,)``).
         """
         ix = self.ix
         names = ("Arm", "ArmRoll", "ForeArm", "ForeArmRoll", "Hand")
@@ -328,18 +358,30 @@ class PoseSolver:
         l2 = self.bone(pre + "ForeArmRoll") + self.bone(pre + "Hand")
         parent = g_rot[:, ix[pre + "Shoulder"]]
         psi = np.radians(np.arange(0, 360, 5.0))
-        ang = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[None, :])
-        cost = self._arm_cost(ang, pre, s, pref[:, None], body)
-        extra = self._elbow_charge(ang["elbow"], wrist, S)
-        choice = viterbi(cost, psi, weight=15.0, extra=extra)
-        best = self._arm_angles(S, wrist, hand_rot, parent, l1, l2, s, psi[choice][:, None])
+        K, G, F = len(psi), len(wrists), len(S)
+        angs = [self._arm_angles(S, w, r, parent, l1, l2, s, psi[None, :]) for w, r in zip(wrists, hand_rots)]
+        # a hand pose that brings the wrist nearer its shoulder than FOLD_CM folds the arm shut
+        fold = [self.FOLD_WEIGHT * np.maximum(0.0, self.FOLD_CM - np.linalg.norm(w - S, axis=-1)) ** 2 for w in wrists]
+        cost = np.concatenate([self._arm_cost(a, pre, s, pref[:, None], body) + f[:, None]
+                               for a, f in zip(angs, fold)], 1)                          # (F, G*K)
+        pose = np.repeat(np.arange(G), K)
+        # the elbow may move as far as the first pose's wrist (the keyed one) moves
+        extra = self._elbow_charge(np.concatenate([a["elbow"] for a in angs], 1), wrists[0], S)
+        if turn_cost is not None:
+            cost = cost + turn_cost[0][pose]
+            extra = extra + turn_cost[1][pose][:, pose]
+        choice = viterbi(cost, np.tile(psi, G), weight=15.0, extra=extra)
+        chosen = pose[choice]
+        wrist = np.stack(wrists)[chosen, np.arange(F)]
+        best = self._arm_angles(S, wrist, np.stack(hand_rots)[chosen, np.arange(F)], parent, l1, l2, s,
+                                psi[choice % K][:, None])
         e, flex, h = (best[k][:, 0] for k in ("upper", "flex", "hand"))
         L[:, arm] = rot_axis(2, e[:, 0]) @ rot_axis(1, e[:, 1]) @ rot_axis(0, e[:, 2] / 2)
         L[:, roll] = rot_axis(0, e[:, 2] / 2)
         L[:, fore] = rot_axis(1, -s * flex)
         L[:, froll] = rot_axis(0, h[:, 0])
         L[:, hand] = rot_axis(2, h[:, 1]) @ rot_axis(1, h[:, 2])
-        return np.linalg.norm(wrist - S, axis=-1) / (l1 + l2)
+        return np.linalg.norm(wrist - S, axis=-1) / (l1 + l2), chosen
 
     ELBOW_SLACK_CM = 3.0    # an elbow may outpace its wrist and shoulder by this much a frame
     ELBOW_WEIGHT = 3.0      # per cm^2 beyond: at 10 the drives clamp 7-10 deg into the limits instead

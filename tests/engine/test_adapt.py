@@ -337,11 +337,11 @@ def test_cli_bench_json():
 
 @pytest.mark.parametrize("solver", ["ccd", "dls"])
 def test_the_trail_hand_keeps_its_grip_where_the_arm_crosses_the_wrap(rig, library, adapters, solver):
-    """The forward defence's right arm crosses the chest past the ZYX wrap (Arm z near
-    180, inside its range [-90, 225]) around the hit: both solvers keep the right hand
-    on its grip (before the solvers read its angles in the range's own window, DLS
-    left it 3-20 cm off)."""
-    shot = next(s for s in library if s.name == "forward_defence")
+    """The cover drive's right arm crosses the chest past the ZYX wrap (Arm z near 180,
+    inside its range [-90, 225]) around the hit: both solvers keep the right hand on its
+    grip (before the solvers read its angles in the range's own window, DLS left the
+    forward defence's, which crossed it then, 3-20 cm off)."""
+    shot = next(s for s in library if s.name == "cover_drive")
     j = rig.skeleton.index("RightArm")
     z = ccd.limit_euler(shot.clip.local_rotations[:, j:j + 1], rig.limits[j:j + 1])[:, 0, 0]
     assert np.any(z > 180.0)                      # read in the range's window, past +180

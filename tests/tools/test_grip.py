@@ -68,3 +68,21 @@ def test_a_grip_whose_face_is_not_across_the_axis_is_refused():
     rig.bat = dict(rig.bat, face_normal=[0.0, 0.6, -0.8])
     with pytest.raises(ValueError, match="perpendicular"):
         grip_frame(rig)
+
+
+@pytest.mark.parametrize("turn", [-30.0, 15.0, 30.0])
+def test_the_bottom_hand_turns_about_the_handle_with_its_palm_on_it(turn):
+    """PoseSolver._turned_right_hand: the bottom hand's palm stays where it held the handle,
+    and the hand's rotation differs from the keyed one by ``turn`` about the handle only."""
+    rig = default_rig()
+    solver = PoseSolver(rig)
+    grip, d, B = keyed_bats()
+    _, _, r_wrist, r_rot = solver.hand_targets(grip, B)
+    wrist, rot = solver._turned_right_hand(r_wrist, r_rot, turn)
+    palm = np.asarray(rig.bat["left_grip"]) * [-1.0, 1.0, 1.0]
+    assert np.allclose(wrist + rot @ palm, r_wrist + r_rot @ palm, atol=1e-9)
+    delta = rot @ np.swapaxes(r_rot, -1, -2)                  # the world turn from keyed to turned
+    assert np.allclose(delta @ d[..., None], d[..., None], atol=1e-9)      # about the handle
+    angle = np.degrees(np.arccos(np.clip((np.trace(delta, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)))
+    assert np.allclose(angle, abs(turn), atol=1e-6)
+    assert not np.allclose(wrist, r_wrist)                     # the wrist goes round with it
