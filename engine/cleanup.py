@@ -9,7 +9,7 @@ Two independent fixes, both compiled (numba, one call per clip; a whole
   alone first (from the previous frame's answer, so the arm does not jump
   between poses that all hold the grip; else CCD for the wrist, the joints
   that only turn the hand, damped Newton on both); where the left hand is out
-  of the right arm's reach, both arms together (``adapt.both_arms_solve``:
+  of the right arm's reach, both arms together (``arms_nb.both_arms_solve``:
   the torso Spine..Spine2 leans and the left arm gives while the bat holds),
   and where even that cannot reach, the bat is moved by what is still missing;
 * planted feet stay planted: where the source's foot is planted (slow and
@@ -209,8 +209,10 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
 # ------------------------------------------------- right hand, compiled path
 from numba import njit
 
-from .adapt import GRIP_CM, GRIP_LENGTH, GRIP_RAD, NO_FACE, ORIENT_TOL, \
-    both_arms_solve, both_fk, gather_chain, grip_solve, grip_target, orient_finish, scatter_chain
+from .adapt import ORIENT_TOL
+from .arms_nb import NO_FACE, both_arms_solve, both_fk
+from .end_nb import GRIP_LENGTH, gather_chain, grip_solve, grip_target, orient_finish, scatter_chain
+from .frames_nb import GRIP_CM, GRIP_RAD
 from .ccd import ccd_frame, chain_arrays, limit_euler
 from .fk_nb import chain_fk, frames_fk
 from .step_nb import Chain, Scratch, scratch, with_limits
@@ -277,7 +279,7 @@ def _leg_frames(local, euler, parent_rot, parent_pos, sel, leg, foot, target, ta
 
 @njit(cache=True)
 def _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q):
-    """FK of both arms (engine.adapt.both_fk): (bat, right hand minus its grip target (3,),
+    """FK of both arms (engine.arms_nb.both_fk): (bat, right hand minus its grip target (3,),
     angle error rad)."""
     bat, rh, _, t_pos, t_rot = both_fk(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q)
     return bat, vsub(rh, t_pos), q_angle(q_at(bufs[2], loc_r.shape[0] - 1), t_rot)
@@ -301,9 +303,9 @@ def _two_arms(prot, ppos, bat0, lh0, hold, arms, free, pose, limits, rel, tols, 
     only by one point, so it may turn it). Then the right arm alone polishes
     the grip on the final left hand. Returns a score: the grip error (cm, with
     10 cm per radian) plus BAT_COST per cm the bat moved and TURN_COST per
-    degree it turned. arms, free, pose, limits as engine.adapt.both_arms_solve's;
+    degree it turned. arms, free, pose, limits as engine.arms_nb.both_arms_solve's;
     rel = the grip in the left hand's frame (position, rotation); tols = (tol cm,
-    orientation tol rad, rounds); bufs as engine.adapt.both_fk's; works = the grip
+    orientation tol rad, rounds); bufs as engine.arms_nb.both_fk's; works = the grip
     solves' work of the left arm below the torso and of the right arm."""
     l_off, l_eoff, r_off, r_eoff, rp = arms
     loc_l, loc_r, eul = pose

@@ -23,11 +23,11 @@ def test_the_key_follows_every_source_file(tmp_path):
 def test_kernels_cache_in_the_keyed_directory():
     from numba.core import config
 
-    from engine import adapt
+    from engine import end_nb
     here = Path(engine.__file__).resolve().parent
     assert engine.NUMBA_CACHE_DIR.name == engine.CACHE_PREFIX + engine.sources_key(here)
     assert Path(config.CACHE_DIR) == engine.NUMBA_CACHE_DIR
-    assert Path(adapt.grip_solve._cache._cache_path).is_relative_to(engine.NUMBA_CACHE_DIR)
+    assert Path(end_nb.grip_solve._cache._cache_path).is_relative_to(engine.NUMBA_CACHE_DIR)
 
 
 def test_a_users_cache_dir_is_where_the_keyed_directory_goes(tmp_path):

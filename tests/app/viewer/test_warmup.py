@@ -68,7 +68,7 @@ def test_the_learnt_child_compiles_the_learnt_solvers_and_the_cache_check_knows_
     cached) and the check for it asks for the learnt lookup's kernels, not the others'."""
     import app.viewer.warmup as warmup_module
     from app.viewer.settings import SOLVERS
-    from engine import adapt, learnt_ik
+    from engine import learnt_ik
     from engine.learnt_solver import LEARNT_SOLVERS
     state, settings = _library()
     used = []
@@ -80,4 +80,5 @@ def test_the_learnt_child_compiles_the_learnt_solvers_and_the_cache_check_knows_
     assert used == list(LEARNT_SOLVERS)
     assert learnt_ik._lookup_frames in warmup_module.warmed_kernels(learnt=True)
     assert learnt_ik._lookup_frames not in warmup_module.warmed_kernels()
-    assert {k.py_func.__module__ for k in warmup_module.warmed_kernels()} == {adapt.__name__, "engine.cleanup"}
+    assert {k.py_func.__module__ for k in warmup_module.warmed_kernels()} == {
+        "engine.frames_nb", "engine.end_nb", "engine.arms_nb", "engine.cleanup"}
