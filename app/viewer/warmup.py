@@ -29,7 +29,7 @@ from app.viewer import pcpad
 from app.viewer.settings import SOLVERS, ViewerSettings
 from app.viewer.state import AppState
 from app.viewer.update import load_library, solve
-from engine import arms_nb, cleanup, end_nb, frames_nb, learnt_ik
+from engine import arms_nb, cleanup_nb, end_nb, frames_nb, learnt_ik
 from engine.learnt_solver import LEARNT_SOLVERS
 
 
@@ -98,7 +98,7 @@ class EngineWarmup:
 def warmed_kernels(learnt: bool = False) -> list:
     """The compiled kernels of the solvers and the clean-up, or (``learnt``) the learnt
     solvers' (their model's training and lookup)."""
-    modules = (learnt_ik,) if learnt else (frames_nb, end_nb, arms_nb, cleanup)
+    modules = (learnt_ik,) if learnt else (frames_nb, end_nb, arms_nb, cleanup_nb)
     return [v for module in modules for v in vars(module).values()
             if isinstance(v, Dispatcher) and v.py_func.__module__ == module.__name__]
 

@@ -8,7 +8,7 @@ from tests.conftest import ROOT
 
 MAX_LINES = 80
 MAX_KERNEL_PARAMS = 16
-SOLVER_MODULES = ("step_nb.py", "ccd.py", "dls.py", "end_nb.py", "arms_nb.py", "frames_nb.py", "adapt.py", "cleanup.py")
+SOLVER_MODULES = ("step_nb.py", "ccd.py", "dls.py", "end_nb.py", "arms_nb.py", "frames_nb.py", "adapt.py", "cleanup.py", "cleanup_nb.py")
 LM_HOME = {("step_nb.py", "lm_loop")}
 FK_HOMES = {("skeleton.py", "forward_kinematics"), ("fk_nb.py", "tree_fk"), ("fk_nb.py", "chain_fk")}
 

@@ -81,4 +81,4 @@ def test_the_learnt_child_compiles_the_learnt_solvers_and_the_cache_check_knows_
     assert learnt_ik._lookup_frames in warmup_module.warmed_kernels(learnt=True)
     assert learnt_ik._lookup_frames not in warmup_module.warmed_kernels()
     assert {k.py_func.__module__ for k in warmup_module.warmed_kernels()} == {
-        "engine.frames_nb", "engine.end_nb", "engine.arms_nb", "engine.cleanup"}
+        "engine.frames_nb", "engine.end_nb", "engine.arms_nb", "engine.cleanup_nb"}
