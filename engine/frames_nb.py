@@ -13,7 +13,7 @@ from .ccd import ccd_frame
 from .dls import dls_frame
 from .fk_nb import chain_fk, tree_fk
 from .quat_nb import q_at, v_at, v_put, q_angle, qconj, qrot, vadd, vnorm, vsub, widen_limits
-from .step_nb import Chain, scratch
+from .step_nb import Chain, copy_rows, scratch
 from .end_nb import FACE_LENGTH, face_solve, gather_chain, grip_solve, grip_target, orient_finish, scatter_chain
 from .arms_nb import both_arms_solve
 
@@ -76,12 +76,9 @@ def _bat_frames(frames, desired, blends, shot, start, left, opts, face, out, buf
         handle = (b_f[0] + blend * o[0], b_f[1] + blend * o[1], b_f[2] + blend * o[2])
         out_blend[i] = blend
         v_put(out_handle, i, handle)
-        for k in range(nl):
-            for c in range(4):
-                loc_l[k, c] = src_local[f, lj[k], c]
-            for c in range(3):
-                src_l[k, c] = src_euler[f, lj[k], c]
-                eul_l[k, c] = src_l[k, c]
+        gather_chain(src_local[f], lj, loc_l)
+        gather_chain(src_euler[f], lj, src_l)
+        copy_rows(src_l, eul_l)
         widen_limits(l_lo, l_hi, src_l, lo_l, hi_l)
         pj = parents[lj[0]]
         prot = (src_grot[f, pj, 0], src_grot[f, pj, 1], src_grot[f, pj, 2], src_grot[f, pj, 3])
@@ -197,12 +194,9 @@ def _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, wor
         rel_q = (rel_rot[f, 0], rel_rot[f, 1], rel_rot[f, 2], rel_rot[f, 3])
         t_pos, t_rot = grip_target(g_lh, p_lh, rel_p, rel_q)
         if fix_right and kept[0][i] > 0:
-            for k in range(nr):
-                for c in range(4):
-                    loc_r[k, c] = out_local[i, rj[k], c]
-                for c in range(3):
-                    src_r[k, c] = src_euler[f, rj[k], c]
-                    eul_r[k, c] = src_r[k, c]
+            gather_chain(out_local[i], rj, loc_r)
+            gather_chain(src_euler[f], rj, src_r)
+            copy_rows(src_r, eul_r)
             widen_limits(r_lo, r_hi, src_r, lo_r, hi_r)
             pj = parents[rj[0]]
             prot = (out_grot[i, pj, 0], out_grot[i, pj, 1], out_grot[i, pj, 2], out_grot[i, pj, 3])

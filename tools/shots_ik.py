@@ -268,8 +268,7 @@ class PoseSolver:
                 costs[:, k] += arm_costs[pre][:, k].min(1)
                 elbows[pre][:, k] = ang["elbow"]
                 # an arm folded shut: the roll carried the hand round the handle to its shoulder
-                fold = np.maximum(0.0, self.FOLD_CM - np.linalg.norm(w - g_pos[:, self.ix[pre + "Arm"]], axis=-1))
-                costs[:, k] += self.FOLD_WEIGHT * fold ** 2
+                costs[:, k] += self._fold_charge(w, g_pos[:, self.ix[pre + "Arm"]])
         w = T["roll_weight"]
         near = ~np.isfinite(w)
         costs += np.where(near, 200.0, w)[:, None] * (self.ROLLS / 20.0) ** 2
@@ -285,6 +284,10 @@ class PoseSolver:
 
     FOLD_CM = 27.0          # make_shots.unfold's d_min: an elbow past ~135 degrees
     FOLD_WEIGHT = 8.0       # per cm^2 nearer
+
+    def _fold_charge(self, wrist, shoulder):
+        """``(F,)``: FOLD_WEIGHT per cm^2 a wrist ``(F, 3)`` lies nearer its shoulder than FOLD_CM."""
+        return self.FOLD_WEIGHT * np.maximum(0.0, self.FOLD_CM - np.linalg.norm(wrist - shoulder, axis=-1)) ** 2
     SPEED_WEIGHT = 300.0    # per cm^2 the roll adds to the Bat joint's keyed step
 
     def _speed_charge(self, grip, bat_rot):
@@ -361,9 +364,8 @@ class PoseSolver:
         K, G, F = len(psi), len(wrists), len(S)
         angs = [self._arm_angles(S, w, r, parent, l1, l2, s, psi[None, :]) for w, r in zip(wrists, hand_rots)]
         # a hand pose that brings the wrist nearer its shoulder than FOLD_CM folds the arm shut
-        fold = [self.FOLD_WEIGHT * np.maximum(0.0, self.FOLD_CM - np.linalg.norm(w - S, axis=-1)) ** 2 for w in wrists]
-        cost = np.concatenate([self._arm_cost(a, pre, s, pref[:, None], body) + f[:, None]
-                               for a, f in zip(angs, fold)], 1)                          # (F, G*K)
+        cost = np.concatenate([self._arm_cost(a, pre, s, pref[:, None], body) + self._fold_charge(w, S)[:, None]
+                               for a, w in zip(angs, wrists)], 1)                         # (F, G*K)
         pose = np.repeat(np.arange(G), K)
         # the elbow may move as far as the first pose's wrist (the keyed one) moves
         extra = self._elbow_charge(np.concatenate([a["elbow"] for a in angs], 1), wrists[0], S)
