@@ -393,14 +393,18 @@ def pull():
     bats = [(-0.80, dict(STANCE_BAT)),
             # re-keyed with the crouched stance (was (20, 110, 106) and (31, 136, 84)):
             # the right forearm and wrist stay inside their limits
-            (-0.58, bat(grip=(20, 110, 102), d=(-0.05, -0.4, -0.91))),
+            # the face open to the sky as the bat goes up, and keyed through the finish: left
+            # to the forearms (tools/shots_keys.face_for_forearm) the elbows popped 6 times
+            # over 20 cm and the humeri turned 9 frames past their axial range, 25 past the
+            # horizontal (a search over eight faces a key, tools/shots_check's measures)
+            (-0.58, bat(grip=(20, 110, 102), d=(-0.05, -0.4, -0.91), n=(-0.02, 0.92, -0.4))),
             (-0.36, bat(grip=(28, 128, 80), d=(-0.45, 0.65, -0.6))),          # high backlift
             (-0.20, bat(grip=(30, 136, 84), d=(-0.65, 0.4, -0.65)))]
     bats += swing(hit, d=(-0.78, 0.03, 0.62), n=(0.6, -0.2, 0.77), v=(0.55, 0, 0.85), peak=10.0,
                   pivot=(20, 140, 110))
-    bats += [(0.27, bat(grip=(30, 120, 120), d=(0.5, 0.25, 0.85))),
-             (0.40, bat(grip=(30, 128, 120), d=(0.55, 0.6, 0.0))),
-             (0.50, bat(grip=(38, 130, 100), d=(0.5, 0.5, -0.7)))]
+    bats += [(0.27, bat(grip=(30, 120, 120), d=(0.5, 0.25, 0.85), n=(0.86, 0, -0.51))),
+             (0.40, bat(grip=(30, 128, 120), d=(0.55, 0.6, 0.0), n=(-0.52, 0.48, 0.71))),
+             (0.50, bat(grip=(38, 130, 100), d=(0.5, 0.5, -0.7), n=(0.81, 0, 0.58)))]
     looks = [(-0.55, BOWLER), (-0.30, (0, 160, 600)), (0.0, hit + V(0, 0, 10)), (0.30, (400, 80, 300)),
              (0.95, BOWLER)]
     keys = back_foot(t_frames(30), 1.3, (15, 1, 85), -100.0, (24, 1, 128), -50.0, bats,
