@@ -299,9 +299,11 @@ def cover_drive():
         "cover_drive", t_frames(30), 1.3, (0, 1, 198), -45.0,
         hit=(-42, 30, 205), d_hit=(-0.15, -1, -0.1), n_hit=(-0.55, 0, 0.85), v_hit=(-0.45, 0.2, 0.9),
         pivot=(5, 125, 172),
+        # the finish's face keyed over the head and down the back (left to the forearms: the
+        # elbows popped at frames 38, 46, 53, the humeri 14 frames past their axial range)
         follow=[(0.20, bat(grip=(-30, 120, 195), d=(-0.3, 0.4, 0.85))),
-                (0.42, bat(grip=(-10, 148, 170), d=(0.2, 0.8, -0.5))),
-                (0.58, bat(grip=(10, 128, 168), d=(-0.09, -0.18, -0.98))),
+                (0.42, bat(grip=(-10, 148, 170), d=(0.2, 0.8, -0.5), n=(0.93, 0, 0.37))),
+                (0.58, bat(grip=(10, 128, 168), d=(-0.09, -0.18, -0.98), n=(0.02, -0.98, 0.18))),
                 (0.72, bat(grip=(-4, 104, 152), d=(0.05, -0.5, -0.85)))],
         hit_body=body(hips=(18, 74, 156), hips_ypr=(-72, 18, -4), chest=(-62, 36, -6)),
         finish_body=body(hips=(18, 77, 160), hips_ypr=(-66, 12, -3), chest=(-50, 20, -8)),
