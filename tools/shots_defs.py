@@ -345,7 +345,9 @@ def back_foot(t0, t1, r_toe, r_yaw, l_toe, l_yaw, bats, hit_body, finish_body, l
 def back_foot_defence():
     hit = V(-4, 72, 126)
     bats = [(-0.80, dict(STANCE_BAT)),
-            (-0.58, bat(grip=(8, 92, 110), d=(-0.1, -0.8, -0.6))),
+            # the face opening up as the bat lifts (left to the forearms, the bottom elbow
+            # swung 45 cm round its arm in one frame at the top of the backlift)
+            (-0.58, bat(grip=(8, 92, 110), d=(-0.1, -0.8, -0.6), n=(-0.13, 0.6, -0.79))),
             # a short, early backlift: the bat stays under 3.5 m/s (Stretch et al.'s FD peak)
             (-0.42, bat(grip=(22, 112, 102), d=(-0.4, -0.5, -0.77))),
             (-0.22, bat(grip=(12, 118, 118), d=(-0.22, -0.85, -0.48))),
