@@ -93,10 +93,11 @@ def shared_reach(solver, d_min: float = 27.0, d_max: float = 48.0) -> None:
                                  f"outside [{d_min}, {d_max}]")
 
 
-def build(name: str, rig=None, noise: bool = True):
-    """(skeleton, clip, hit_frame, description, info) for one shot."""
+def build(name: str, rig=None, noise: bool = True, keyed=None):
+    """(skeleton, clip, hit_frame, description, info) for one shot; ``keyed``: its
+    (keys, description) in place of ``SHOTS[name]()``."""
     rig = rig or default_rig()
-    keys, description = SHOTS[name]()
+    keys, description = keyed or SHOTS[name]()
     t0, t1 = keys[0][0], keys[-1][0]
     n_pre, n_post = int(round(-t0 * FPS)), int(round(t1 * FPS))
     times = np.arange(-n_pre, n_post + 1) / FPS
@@ -116,15 +117,18 @@ def build(name: str, rig=None, noise: bool = True):
     # never fold an elbow shut nor pull an arm out of its socket: where a
     # hand comes within 27 cm of its shoulder (elbow past ~135 degrees) or
     # beyond 48 cm (of 54), carry the bat to where the arms can hold it
+    keyed_grip = tr["grip"]
     for _ in range(8):
         tr["grip"] = tr["grip"] + unfold(solver, T, times)
         T = targets(tr)
+    info = {"unfold_cm": float(np.linalg.norm(tr["grip"] - keyed_grip, axis=-1).max())}
     # the face may turn about the bat's axis except near impact and at the
     # shared first and last frames
     near_hit = np.exp(-0.5 * (times / 0.06) ** 2)
     T["roll_weight"] = 0.05 + 200.0 * near_hit + 200.0 * (1.0 - envelope(len(times), 6))
     T["roll_weight"][n_pre] = np.inf          # the face meets the ball as keyed
-    root, local, info = solver.solve(T)
+    root, local, solved = solver.solve(T)
+    info.update(solved)
     clip, clamped = into_limits(rig, Clip(root, local, FPS))
     return rig.skeleton, clip, n_pre, description, {"tracks": tr, "clamped_deg": clamped, **info}
 

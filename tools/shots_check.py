@@ -347,3 +347,44 @@ def elbow_problems(rig, global_positions) -> list[str]:
     return [f"{side} elbow {e.max():.1f} cm beyond its wrist and shoulder between frames {int(e.argmax())} "
             f"and {int(e.argmax()) + 1} ({int((e > POP_CM).sum())} frames over {POP_CM:.0f})"
             for side, e in excess.items() if e.max() > POP_CM]
+
+
+# ----------------------------------------------------------------- the shot's motion, in counts
+FAR_PAST_DEG = 30.0     # past a shoulder range by this much the arm lies through the body
+BIG_POP_CM = 20.0       # an elbow 20 cm past its wrist in one frame: the whole arm flips
+FOLD_CM = 20.0          # a wrist this near its shoulder folds the arm shut
+
+
+def arm_figures(rig, global_rotations, global_positions) -> dict:
+    """Counts over both arms' frames: ``pops`` (an elbow POP_CM past its wrist and shoulder
+    in a frame), ``big_pops`` (BIG_POP_CM), ``pop_excess_cm`` (summed beyond POP_CM),
+    ``horizontal`` and ``axial`` (FAR_PAST_DEG past the shoulder's horizontal or the
+    humerus's axial range) and ``folds`` (the wrist within FOLD_CM of its shoulder)."""
+    sk = rig.skeleton
+    out = dict.fromkeys(("pops", "big_pops", "pop_excess_cm", "horizontal", "axial", "folds"), 0)
+    for side in ("Left", "Right"):
+        e, _ = elbow_excess(rig, global_positions, side)
+        out["pops"] += int((e > POP_CM).sum())
+        out["big_pops"] += int((e > BIG_POP_CM).sum())
+        out["pop_excess_cm"] += float(np.maximum(e - POP_CM, 0.0).sum())
+        out["horizontal"] += int((horizontal_excess(*humerus_angles(rig, global_rotations, side)) > FAR_PAST_DEG).sum())
+        _, elevation, axial = humeral_rotations(rig, global_rotations, side)
+        out["axial"] += int((axial_excess(elevation, axial) > FAR_PAST_DEG).sum())
+        reach = global_positions[:, sk.index(side + "Hand")] - global_positions[:, sk.index(side + "Arm")]
+        out["folds"] += int((np.linalg.norm(reach, axis=-1) < FOLD_CM).sum())
+    return out
+
+
+def face_turns_deg(rig, global_rotations) -> np.ndarray:
+    """How far the bat's face turns between frames ``(F-1,)`` degrees."""
+    from engine import quat
+    bat = global_rotations[:, rig.bat_joint]
+    n = quat.rotate(bat, np.broadcast_to(np.asarray(rig.bat["face_normal"], float), bat.shape[:-1] + (3,)))
+    return np.degrees(np.arccos(np.clip((n[1:] * n[:-1]).sum(-1), -1.0, 1.0)))
+
+
+def bat_acceleration(global_positions, bat_joint: int) -> np.ndarray:
+    """|second difference| of the Bat joint ``(F,)`` cm per frame^2; the shot starts from rest."""
+    p = global_positions[:, bat_joint]
+    p = np.concatenate([p[:1], p])
+    return np.linalg.norm(np.diff(p, 2, axis=0), axis=-1)

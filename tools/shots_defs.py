@@ -374,7 +374,9 @@ def square_cut():
     # played late, beside the back foot: the bat comes down from a high backlift
     # across the line, toe toward gully, face open toward point
     bats = [(-0.80, dict(STANCE_BAT)),
-            (-0.58, bat(grip=(22, 100, 96), d=(0.19, 0.05, -0.98))),
+            # the face open to the off side and up as the bat goes up (tools/face_keys; left
+            # to the forearms, the top elbow popped twice over 20 cm in the backlift)
+            (-0.58, bat(grip=(22, 100, 96), d=(0.19, 0.05, -0.98), n=(-0.7, 0.71, -0.1))),
             (-0.36, bat(grip=(24, 128, 84), d=(-0.2, 0.65, -0.75))),           # high backlift
             (-0.20, bat(grip=(-14, 136, 80), d=(-0.25, 0.5, -0.85)))]
     bats += swing(hit, d=(-0.7, -0.2, -0.7), n=(-0.7, -0.1, 0.7), v=(0, -0.7, 0.7), peak=10.0,

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from engine.library import load_library
+from tools.shots_check import BIG_POP_CM, FAR_PAST_DEG, bat_acceleration, face_turns_deg
 
 STILL_STEPS = 5             # frames 0..5: the stance hold and the still bat key
 STILL_CM_PER_FRAME = 1.0    # 0.3 m/s; a stance that pops moved 10-14 cm a frame
@@ -34,18 +35,11 @@ def test_stance_is_still(shots, rig):
                 f"{s.name}: {name} moves {np.round(step, 1)} cm a frame in the stance")
 
 
-def bat_acceleration(shot, bat_joint) -> np.ndarray:
-    """|second difference| of the Bat joint, cm per frame^2 ``(F,)``; the shot starts from rest."""
-    p = shot.fk[1][:, bat_joint]
-    p = np.concatenate([p[:1], p])
-    return np.linalg.norm(np.diff(p, 2, axis=0), axis=-1)
-
-
 def test_no_jerk_beyond_the_swing(shots, rig):
     """Nowhere does the bat speed up or slow down harder than in the shot's own
     swing through the ball: a frame-to-frame spike outside it is a pop."""
     for s in shots:
-        a = bat_acceleration(s, rig.bat_joint)
+        a = bat_acceleration(s.fk[1], rig.bat_joint)
         window = np.abs(np.arange(len(a)) - s.hit_frame) <= HIT_WINDOW
         swing = a[window].max()
         f = int(np.argmax(np.where(window, 0.0, a)))
@@ -62,20 +56,15 @@ def test_the_face_never_flips_over_between_two_frames(shots, rig):
     to the next: a flip between two frames is a pop the viewer shows (the straight drive's
     face turned 169 degrees between frames 22 and 23 before the bat's keys were
     interpolated as one turn about the axis, the sweep's 174 four frames after the hit)."""
-    from engine import quat
-    n_local = np.asarray(rig.bat["face_normal"], float)
     worst = {}
     for s in shots:
-        g = s.fk[0][:, rig.bat_joint]
-        n = quat.rotate(g, np.broadcast_to(n_local, g.shape[:-1] + (3,)))
-        turn = np.degrees(np.arccos(np.clip((n[1:] * n[:-1]).sum(-1), -1.0, 1.0)))
+        turn = face_turns_deg(rig, s.fk[0])
         outside = np.abs(np.arange(len(turn)) + 0.5 - s.hit_frame) > CONTACT_WINDOW
         worst[s.name] = round(float(turn[outside].max()), 1)
     assert max(worst.values()) <= FACE_TURN_DEG_PER_FRAME, worst
 
 
 SLOW_WRIST_CM = 5.0     # a wrist slower than 1.5 m/s: no swing to hide a pop in
-BIG_POP_CM = 20.0       # an elbow 20 cm past its wrist in one frame: the whole arm flips
 
 
 def test_elbows_seldom_swing_round_the_arm(shots, rig):
@@ -102,9 +91,6 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
     assert len(pops) <= 100, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
     assert len(big_pops) <= 34, f"{len(big_pops)} pop over {BIG_POP_CM:.0f} cm (4c83454: 46): {big_pops[:12]}"
     assert len(slow_pops) <= 30, f"{len(slow_pops)} pop while the wrist is slow (eeb3a88: 83): {slow_pops[:12]}"
-
-
-FAR_PAST_DEG = 30.0
 
 
 def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
