@@ -10,7 +10,7 @@ the hit) and the shared stance and rest, and keeps a face where the shot's score
 gets worse: the hit's problems, the face's turn a frame, the bat's acceleration outside
 the swing, the clamp into the limits, the grip moved by ``make_shots.unfold``.
 
-    python -m tools.face_keys SHOT [--keys 4,9]
+    python -m tools.face_keys SHOT [--keys 4,9] [--faces 8]
 
 It prints each trial and the faces to key (``n=...`` in the shot's definition). Its
 choices are proposals: look at the shot before keying one (``tools.closeup_shots``).
@@ -95,8 +95,9 @@ def with_faces(name: str, faces: dict) -> tuple[list, str]:
     return keys, desc
 
 
-def search(name: str, only=None, rig=None, out=print) -> dict:
-    """Greedy over :func:`free_keys` (or ``only``); returns {key index: face normal}."""
+def search(name: str, only=None, count: int = 8, rig=None, out=print) -> dict:
+    """Greedy over :func:`free_keys` (or ``only``), ``count`` faces a key; returns
+    {key index: face normal}."""
     rig = rig or default_rig()
     base = best = measure(name, SHOTS[name](), rig)
     out(f"{name}: as keyed {_line(base)}")
@@ -105,7 +106,7 @@ def search(name: str, only=None, rig=None, out=print) -> dict:
     for i in free_keys(keys):
         if only and i not in only:
             continue
-        for n in candidate_faces(keys[i][1]["bat_d"]):
+        for n in candidate_faces(keys[i][1]["bat_d"], count):
             trial_faces = {**chosen, i: np.round(n, 2)}
             trial = measure(name, with_faces(name, trial_faces), rig)
             ok = acceptable(trial, base)
@@ -128,9 +129,10 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("shot", choices=sorted(SHOTS))
     ap.add_argument("--keys", help="only these key indices, comma-separated")
+    ap.add_argument("--faces", type=int, default=8, help="faces tried a key, evenly round its axis")
     a = ap.parse_args(argv)
     only = {int(k) for k in a.keys.split(",")} if a.keys else None
-    search(a.shot, only)
+    search(a.shot, only, a.faces)
     return 0
 
 
