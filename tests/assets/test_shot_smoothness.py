@@ -79,7 +79,8 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
     a continuous elbow costs each arm (tools/shots_ik.continuity_charge), the large ones (over
     BIG_POP_CM) fell 46 -> 37, all 95 -> 93, with the wrist slow 21 -> 18; with the humerus's
     axial range charged harder (AXIAL_DEG 14): 38, 81 and 12; with the bottom hand free to
-    turn about the handle (PoseSolver.GRIP_TURNS), 31, 80 and 15."""
+    turn about the handle (PoseSolver.GRIP_TURNS), 31, 80 and 15; with the faces keyed where
+    they had been left to the forearms (tools/face_keys), 15, 52 and 10."""
     from tools.shots_check import POP_CM, elbow_excess
     pops, slow_pops, big_pops = [], [], []
     for s in shots:
@@ -88,9 +89,9 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
             pops += [(s.name, side, int(f)) for f in np.nonzero(excess > POP_CM)[0]]
             slow_pops += [(s.name, side, int(f)) for f in np.nonzero((excess > POP_CM) & (wrist < SLOW_WRIST_CM))[0]]
             big_pops += [(s.name, side, int(f)) for f in np.nonzero(excess > BIG_POP_CM)[0]]
-    assert len(pops) <= 100, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
-    assert len(big_pops) <= 34, f"{len(big_pops)} pop over {BIG_POP_CM:.0f} cm (4c83454: 46): {big_pops[:12]}"
-    assert len(slow_pops) <= 30, f"{len(slow_pops)} pop while the wrist is slow (eeb3a88: 83): {slow_pops[:12]}"
+    assert len(pops) <= 65, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
+    assert len(big_pops) <= 20, f"{len(big_pops)} pop over {BIG_POP_CM:.0f} cm (4c83454: 46): {big_pops[:12]}"
+    assert len(slow_pops) <= 15, f"{len(slow_pops)} pop while the wrist is slow (eeb3a88: 83): {slow_pops[:12]}"
 
 
 def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
@@ -99,7 +100,7 @@ def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
     through the neck or the chest: 311 arm-frames over the library before the authoring
     solver charged it (tools/shots_ik.PoseSolver.SHOULDER_DEG), 95 after, 97 with the
     humerus's axial rotation charged too, 82 with the bottom hand free to turn about the
-    handle (PoseSolver.GRIP_TURNS). What is left is
+    handle (PoseSolver.GRIP_TURNS), 46 with the faces keyed (tools/face_keys). What is left is
     where the keyed bat holds the hands across the chest (the finishes) and round the hits,
     where the arms are left as they were (PoseSolver.CONTACT_FRAMES)."""
     from tools.shots_check import horizontal_excess, humerus_angles
@@ -108,7 +109,7 @@ def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
         for side in ("Left", "Right"):
             excess = horizontal_excess(*humerus_angles(rig, s.fk[0], side))
             far += [(s.name, side, int(f)) for f in np.nonzero(excess > FAR_PAST_DEG)[0]]
-    assert len(far) <= 90, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the horizontal range: {far[:12]}"
+    assert len(far) <= 60, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the horizontal range: {far[:12]}"
 
 
 def test_the_humerus_seldom_turns_past_its_axial_range(shots, rig):
@@ -118,11 +119,12 @@ def test_the_humerus_seldom_turns_past_its_axial_range(shots, rig):
     of 12-03 late, 285 with the shoulder's horizontal range, 103 since the authoring solver
     charges it too (PoseSolver.AXIAL_DEG), 94 with the forward defence's backlift re-keyed,
     99 with the bat roll charging continuous elbows, 77 with AXIAL_DEG 20 -> 14, 62 with the
-    bottom hand free to turn about the handle (PoseSolver.GRIP_TURNS)."""
+    bottom hand free to turn about the handle (PoseSolver.GRIP_TURNS), 43 with the faces keyed
+    where they had been left to the forearms (tools/face_keys)."""
     from tools.shots_check import axial_excess, humeral_rotations
     far = []
     for s in shots:
         for side in ("Left", "Right"):
             _, elevation, axial = humeral_rotations(rig, s.fk[0], side)
             far += [(s.name, side, int(f)) for f in np.nonzero(axial_excess(elevation, axial) > FAR_PAST_DEG)[0]]
-    assert len(far) <= 70, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the humerus's axial range: {far[:12]}"
+    assert len(far) <= 55, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the humerus's axial range: {far[:12]}"

@@ -223,7 +223,9 @@ def test_position_only_ccd_keeps_the_face_better_when_the_roll_joints_follow(rig
                 assert face.contact(cos) == "face", (shot.name, dx, dy, float(cos))
                 assert face.face_angle_deg(g, shot.fk[0][shot.hit_frame], rig.bat_joint, n_local) < 55.0
     # the roll joints leading (the dissertation's CCD) turn the README example's face
-    # further from the source's (measured 45 vs 16 deg) and less toward the ball
+    # further from the source's and less toward the ball (measured 45 vs 16 deg, cosine
+    # 0.51 vs 0.88; 33.5 vs 18.6 deg, 0.73 vs 0.80 since the cover drive's backlift and
+    # finish faces were keyed, which moved its arms at the hit up to 17 deg, the bat kept)
     cover = next(s for s in library if s.name == "cover_drive")
     turned = {}
     for twist in ("follow", "lead"):
@@ -231,7 +233,7 @@ def test_position_only_ccd_keeps_the_face_better_when_the_roll_joints_follow(rig
         g = a.global_rotations[cover.hit_frame]
         cos = face.face_to_ball(face.face_normal(g, rig.bat_joint, n_local), BALL_START, a.desired_hit_point)
         turned[twist] = (face.face_angle_deg(g, cover.fk[0][cover.hit_frame], rig.bat_joint, n_local), cos)
-    assert turned["lead"][0] > turned["follow"][0] + 15.0 and turned["lead"][1] < turned["follow"][1]
+    assert turned["lead"][0] > turned["follow"][0] + 10.0 and turned["lead"][1] < turned["follow"][1]
 
 
 GRID_X = (-30.0, -15.0, 0.0, 15.0, 30.0)        # cm across the pitch (-x: the off side)

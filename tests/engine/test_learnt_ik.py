@@ -144,9 +144,14 @@ def test_bad_input_is_refused():
 
 def test_world_lookup_then_ccd_reaches_a_held_out_pose(rig):
     """learnt+ccd as adapt would wire it: a left-arm model trained without a shot gives
-    the start pose for that shot's bat positions (reachable: they are its own), CCD
-    finishes to 0.1 cm; lookup_world agrees with constraints + lookup."""
+    the start pose for that shot's bat positions (reachable: they are its own); lookup_world
+    agrees with constraints + lookup. Plain CCD from that start finishes to 0.1 cm on all but
+    a few frames (the square cut's frames 22-23 stick at 2.1 cm in a corner of the limits
+    since its pick-up's face was keyed); the adapter's exact solve from the same start, as
+    learnt+ccd runs it, reaches every frame."""
     from engine import ccd
+    from engine.adapt import AdaptSettings, Adapter
+    from engine.learnt_solver import LearntSolver
     from engine.library import load_library
     shots = load_library(rig=rig)
     held = shots[5]
@@ -159,4 +164,7 @@ def test_world_lookup_then_ccd_reaches_a_held_out_pose(rig):
     n = len(ch.joints)
     assert list(m.limb.joints[:n]) == list(ch.joints)
     _, err, _ = ccd.solve(ch, g_rot[:, ch.parent], g_pos[:, ch.parent], start[:, :n], bat)
-    assert err.max() < 0.1
+    assert np.mean(err < 0.1) >= 0.95 and np.median(err) < 0.01
+    a = LearntSolver(rig, shots).adapt(Adapter(rig, held), held.hit_point, AdaptSettings(solver="learnt+ccd"),
+                                       leave_out=True)
+    assert np.linalg.norm(a.global_positions[:, rig.bat_joint] - a.handles, axis=-1).max() < 0.01
