@@ -22,7 +22,6 @@ import numpy as np
 
 from engine.library import Shot
 from engine.rig import default_rig
-from engine.skeleton import clip_fk
 
 from . import make_shots
 from . import shots_check as chk
@@ -30,9 +29,7 @@ from .shots_defs import SHOTS
 
 SWING_S = 0.21          # keys this near the hit belong to the swing
 STANCE_S = -0.75        # keys before this are the stance's
-FACE_TURN_MAX = 44.5    # deg a frame outside the contact (tests: 45)
-CONTACT_FRAMES = 2
-SWING_FRAMES = 6        # the bat's acceleration outside this may not pass the swing's
+FACE_TURN_MAX = chk.FACE_TURN_DEG - 0.5    # deg a frame outside the contact, with a margin
 MIN_GAIN = 3.0
 
 
@@ -57,13 +54,14 @@ def score(fig: dict) -> float:
 def measure(name: str, keyed, rig) -> dict:
     """Build shot ``name`` from ``keyed`` (keys, description) and read what the search weighs."""
     _, clip, hit, _, info = make_shots.build(name, rig, keyed=keyed)
-    g_rot, g_pos = clip_fk(rig.skeleton, clip)
+    shot = Shot(name, f"{name}.bvh", hit, "", rig.skeleton, clip, rig.bat_joint)
+    g_rot, g_pos = shot.fk
     fig = chk.arm_figures(rig, g_rot, g_pos)
     turns = chk.face_turns_deg(rig, g_rot)
     acc = chk.bat_acceleration(g_pos, rig.bat_joint)
-    swing = np.abs(np.arange(len(acc)) - hit) <= SWING_FRAMES
-    m = chk.hit_measures(rig, Shot(name, f"{name}.bvh", hit, "", rig.skeleton, clip, rig.bat_joint))
-    fig.update(face_turn=float(turns[np.abs(np.arange(len(turns)) + 0.5 - hit) > CONTACT_FRAMES].max()),
+    swing = np.abs(np.arange(len(acc)) - hit) <= chk.SWING_FRAMES
+    m = chk.hit_measures(rig, shot)
+    fig.update(face_turn=float(turns[np.abs(np.arange(len(turns)) + 0.5 - hit) > chk.CONTACT_FRAMES].max()),
                jerk=float(acc[~swing].max() - acc[swing].max()), clamp=info["clamped_deg"],
                unfold=info["unfold_cm"],
                hit_problems=len(chk.hit_problems(name, m)), azimuth=m["azimuth_deg"])

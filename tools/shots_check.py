@@ -353,6 +353,9 @@ def elbow_problems(rig, global_positions) -> list[str]:
 FAR_PAST_DEG = 30.0     # past a shoulder range by this much the arm lies through the body
 BIG_POP_CM = 20.0       # an elbow 20 cm past its wrist in one frame: the whole arm flips
 FOLD_CM = 20.0          # a wrist this near its shoulder folds the arm shut
+SWING_FRAMES = 6        # frames either side of the hit: the swing and the contact
+CONTACT_FRAMES = 2      # frames either side of the hit where the swing itself turns the face
+FACE_TURN_DEG = 45.0    # a frame outside the contact (1350 deg/s): faster than wrists roll a bat
 
 
 def arm_figures(rig, global_rotations, global_positions) -> dict:
@@ -377,9 +380,8 @@ def arm_figures(rig, global_rotations, global_positions) -> dict:
 
 def face_turns_deg(rig, global_rotations) -> np.ndarray:
     """How far the bat's face turns between frames ``(F-1,)`` degrees."""
-    from engine import quat
-    bat = global_rotations[:, rig.bat_joint]
-    n = quat.rotate(bat, np.broadcast_to(np.asarray(rig.bat["face_normal"], float), bat.shape[:-1] + (3,)))
+    from engine.face import face_normal
+    n = face_normal(global_rotations, rig.bat_joint, rig.bat["face_normal"])
     return np.degrees(np.arccos(np.clip((n[1:] * n[:-1]).sum(-1), -1.0, 1.0)))
 
 

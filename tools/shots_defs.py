@@ -402,7 +402,7 @@ def pull():
             # the face open to the sky as the bat goes up, and keyed through the finish: left
             # to the forearms (tools/shots_keys.face_for_forearm) the elbows popped 6 times
             # over 20 cm and the humeri turned 9 frames past their axial range, 25 past the
-            # horizontal (a search over eight faces a key, tools/shots_check's measures)
+            # horizontal (the faces tools/face_keys found)
             (-0.58, bat(grip=(20, 110, 102), d=(-0.05, -0.4, -0.91), n=(-0.02, 0.92, -0.4))),
             (-0.36, bat(grip=(28, 128, 80), d=(-0.45, 0.65, -0.6))),          # high backlift
             (-0.20, bat(grip=(30, 136, 84), d=(-0.65, 0.4, -0.65)))]

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from engine.library import load_library
-from tools.shots_check import BIG_POP_CM, FAR_PAST_DEG, bat_acceleration, face_turns_deg
+from tools.shots_check import (BIG_POP_CM, CONTACT_FRAMES, FACE_TURN_DEG, FAR_PAST_DEG, SWING_FRAMES,
+                               bat_acceleration, face_turns_deg)
 
 STILL_STEPS = 5             # frames 0..5: the stance hold and the still bat key
 STILL_CM_PER_FRAME = 1.0    # 0.3 m/s; a stance that pops moved 10-14 cm a frame
-HIT_WINDOW = 6              # frames either side of the hit: the swing and the contact
 
 
 @pytest.fixture(scope="module")
@@ -40,28 +40,26 @@ def test_no_jerk_beyond_the_swing(shots, rig):
     swing through the ball: a frame-to-frame spike outside it is a pop."""
     for s in shots:
         a = bat_acceleration(s.fk[1], rig.bat_joint)
-        window = np.abs(np.arange(len(a)) - s.hit_frame) <= HIT_WINDOW
+        window = np.abs(np.arange(len(a)) - s.hit_frame) <= SWING_FRAMES
         swing = a[window].max()
         f = int(np.argmax(np.where(window, 0.0, a)))
         assert a[f] <= swing, (f"{s.name}: bat acceleration {a[f]:.1f} cm/frame^2 at frame {f}, "
                                f"above the swing's {swing:.1f}")
 
 
-FACE_TURN_DEG_PER_FRAME = 45.0   # 1350 deg/s: faster than wrists roll a bat outside the swing
-CONTACT_WINDOW = 2               # frames either side of the hit where the swing itself turns the face
 
 
 def test_the_face_never_flips_over_between_two_frames(shots, rig):
-    """Outside the contact the face turns less than FACE_TURN_DEG_PER_FRAME from one frame
+    """Outside the contact the face turns less than FACE_TURN_DEG from one frame
     to the next: a flip between two frames is a pop the viewer shows (the straight drive's
     face turned 169 degrees between frames 22 and 23 before the bat's keys were
     interpolated as one turn about the axis, the sweep's 174 four frames after the hit)."""
     worst = {}
     for s in shots:
         turn = face_turns_deg(rig, s.fk[0])
-        outside = np.abs(np.arange(len(turn)) + 0.5 - s.hit_frame) > CONTACT_WINDOW
+        outside = np.abs(np.arange(len(turn)) + 0.5 - s.hit_frame) > CONTACT_FRAMES
         worst[s.name] = round(float(turn[outside].max()), 1)
-    assert max(worst.values()) <= FACE_TURN_DEG_PER_FRAME, worst
+    assert max(worst.values()) <= FACE_TURN_DEG, worst
 
 
 SLOW_WRIST_CM = 5.0     # a wrist slower than 1.5 m/s: no swing to hide a pop in
