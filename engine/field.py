@@ -22,7 +22,10 @@ POSITIONS = {
     "point": 90.0, "backward-point": 105.0, "gully": 125.0, "third-man": 145.0,
     "long-on": -10.0, "mid-on": -18.0, "mid-wicket": -55.0, "square-leg": -90.0,
     "backward-square-leg": -105.0, "fine-leg": -140.0,
+    "slip": 160.0, "cow-corner": -40.0, "short-leg": -100.0, "long-leg": -150.0, "leg-slip": -165.0,
 }
+# how far out a fielder stands does not change the ball's direction
+DISTANCES = ("deep", "short", "silly")
 
 
 def region(azimuth_deg: float) -> str:
@@ -38,10 +41,18 @@ def _key(name: str) -> str:
     return "-".join(str(name).strip().lower().replace("_", " ").replace("-", " ").split())
 
 
+# the names as people run them together: "midwicket", "squareleg", "thirdman"
+_JOINED = {k.replace("-", ""): k for k in POSITIONS}
+
+
 def position_azimuth(name: str) -> float:
-    """The azimuth of a named fielding position ("mid-off", "Square Leg", "third_man");
-    ValueError, listing the names, for one it does not know."""
-    key = _key(name)
-    if key not in POSITIONS:
+    """The azimuth of a named fielding position ("mid-off", "Square Leg", "third_man",
+    "midwicket", "deep cover": how deep does not change the direction); ValueError,
+    listing the names, for one it does not know."""
+    words = _key(name).split("-")
+    tries = [words, words[1:]] if len(words) > 1 and words[0] in DISTANCES else [words]
+    joined = ["".join(w) for w in tries]
+    key = next((_JOINED[j] for j in joined + [j.removesuffix("s") for j in joined] if j in _JOINED), None)
+    if key is None:
         raise ValueError(f"{name!r} is not a fielding position ({', '.join(POSITIONS)})")
     return POSITIONS[key]

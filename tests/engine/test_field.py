@@ -33,6 +33,21 @@ def test_names_are_read_as_people_write_them(spelling):
     assert field.position_azimuth(spelling) == field.POSITIONS["square-leg"]
 
 
+@pytest.mark.parametrize("spelling,name", [("midwicket", "mid-wicket"), ("Deep Mid Wicket", "mid-wicket"),
+                                           ("deep cover", "cover"), ("silly point", "point"),
+                                           ("short leg", "short-leg"), ("the slips", None), ("slips", "slip"),
+                                           ("thirdman", "third-man"), ("long_on", "long-on")])
+def test_run_together_and_deep_or_close_names_are_the_same_direction(spelling, name):
+    """How deep a fielder stands does not change the ball's direction; names run together
+    (midwicket) are the hyphenated ones; a name that is no position is still refused."""
+    if name is None:
+        with pytest.raises(ValueError):
+            field.position_azimuth(spelling)
+    else:
+        assert field.position_azimuth(spelling) == field.POSITIONS[name]
+
+
 def test_an_unknown_position_is_refused_with_the_names():
-    with pytest.raises(ValueError, match="mid-off"):
-        field.position_azimuth("silly mid-off")
+    for name in ("car park", "deep", "mid", ""):
+        with pytest.raises(ValueError, match="mid-off"):
+            field.position_azimuth(name)
