@@ -358,24 +358,37 @@ CONTACT_FRAMES = 2      # frames either side of the hit where the swing itself t
 FACE_TURN_DEG = 45.0    # a frame outside the contact (1350 deg/s): faster than wrists roll a bat
 
 
-def arm_figures(rig, global_rotations, global_positions) -> dict:
-    """Counts over both arms' frames: ``pops`` (an elbow POP_CM past its wrist and shoulder
-    in a frame), ``big_pops`` (BIG_POP_CM), ``pop_excess_cm`` (summed beyond POP_CM),
-    ``horizontal`` and ``axial`` (FAR_PAST_DEG past the shoulder's horizontal or the
-    humerus's axial range) and ``folds`` (the wrist within FOLD_CM of its shoulder)."""
+SLOW_WRIST_CM = 5.0     # a wrist slower than 1.5 m/s a frame: no swing to hide a pop in
+ARM_FRAMES = ("pops", "big_pops", "slow_pops", "horizontal", "axial", "folds")
+
+
+def arm_frames(rig, global_rotations, global_positions) -> tuple[dict, float]:
+    """({kind: [(side, frame), ...]} for each of ARM_FRAMES, the cm summed beyond POP_CM):
+    ``pops`` (an elbow POP_CM past its wrist and shoulder in a frame), ``big_pops``
+    (BIG_POP_CM), ``slow_pops`` (a pop with the wrist under SLOW_WRIST_CM), ``horizontal`` and
+    ``axial`` (FAR_PAST_DEG past the shoulder's horizontal or the humerus's axial range) and
+    ``folds`` (the wrist within FOLD_CM of its shoulder)."""
     sk = rig.skeleton
-    out = dict.fromkeys(("pops", "big_pops", "pop_excess_cm", "horizontal", "axial", "folds"), 0)
+    out = {k: [] for k in ARM_FRAMES}
+    pop_excess_cm = 0.0
     for side in ("Left", "Right"):
-        e, _ = elbow_excess(rig, global_positions, side)
-        out["pops"] += int((e > POP_CM).sum())
-        out["big_pops"] += int((e > BIG_POP_CM).sum())
-        out["pop_excess_cm"] += float(np.maximum(e - POP_CM, 0.0).sum())
-        out["horizontal"] += int((horizontal_excess(*humerus_angles(rig, global_rotations, side)) > FAR_PAST_DEG).sum())
+        e, wrist = elbow_excess(rig, global_positions, side)
         _, elevation, axial = humeral_rotations(rig, global_rotations, side)
-        out["axial"] += int((axial_excess(elevation, axial) > FAR_PAST_DEG).sum())
         reach = global_positions[:, sk.index(side + "Hand")] - global_positions[:, sk.index(side + "Arm")]
-        out["folds"] += int((np.linalg.norm(reach, axis=-1) < FOLD_CM).sum())
-    return out
+        where = {"pops": e > POP_CM, "big_pops": e > BIG_POP_CM, "slow_pops": (e > POP_CM) & (wrist < SLOW_WRIST_CM),
+                 "horizontal": horizontal_excess(*humerus_angles(rig, global_rotations, side)) > FAR_PAST_DEG,
+                 "axial": axial_excess(elevation, axial) > FAR_PAST_DEG,
+                 "folds": np.linalg.norm(reach, axis=-1) < FOLD_CM}
+        for kind, mask in where.items():
+            out[kind] += [(side, int(f)) for f in np.nonzero(mask)[0]]
+        pop_excess_cm += float(np.maximum(e - POP_CM, 0.0).sum())
+    return out, pop_excess_cm
+
+
+def arm_figures(rig, global_rotations, global_positions) -> dict:
+    """``arm_frames`` counted: {kind: arm-frames} and ``pop_excess_cm``."""
+    frames, pop_excess_cm = arm_frames(rig, global_rotations, global_positions)
+    return {**{k: len(v) for k, v in frames.items()}, "pop_excess_cm": pop_excess_cm}
 
 
 def face_turns_deg(rig, global_rotations) -> np.ndarray:

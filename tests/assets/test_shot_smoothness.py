@@ -62,7 +62,10 @@ def test_the_face_never_flips_over_between_two_frames(shots, rig):
     assert max(worst.values()) <= FACE_TURN_DEG, worst
 
 
-SLOW_WRIST_CM = 5.0     # a wrist slower than 1.5 m/s: no swing to hide a pop in
+def arm_frames(shots, rig, kind):
+    """[(shot, side, frame)] of one of tools.shots_check.ARM_FRAMES over the library."""
+    from tools.shots_check import arm_frames as frames_of
+    return [(s.name, side, f) for s in shots for side, f in frames_of(rig, *s.fk)[0][kind]]
 
 
 def test_elbows_seldom_swing_round_the_arm(shots, rig):
@@ -79,14 +82,7 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
     axial range charged harder (AXIAL_DEG 14): 38, 81 and 12; with the bottom hand free to
     turn about the handle (PoseSolver.GRIP_TURNS), 31, 80 and 15; with the faces keyed where
     they had been left to the forearms (tools/face_keys), 15, 52 and 10."""
-    from tools.shots_check import POP_CM, elbow_excess
-    pops, slow_pops, big_pops = [], [], []
-    for s in shots:
-        for side in ("Left", "Right"):
-            excess, wrist = elbow_excess(rig, s.fk[1], side)
-            pops += [(s.name, side, int(f)) for f in np.nonzero(excess > POP_CM)[0]]
-            slow_pops += [(s.name, side, int(f)) for f in np.nonzero((excess > POP_CM) & (wrist < SLOW_WRIST_CM))[0]]
-            big_pops += [(s.name, side, int(f)) for f in np.nonzero(excess > BIG_POP_CM)[0]]
+    pops, slow_pops, big_pops = (arm_frames(shots, rig, k) for k in ("pops", "slow_pops", "big_pops"))
     assert len(pops) <= 65, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
     assert len(big_pops) <= 20, f"{len(big_pops)} pop over {BIG_POP_CM:.0f} cm (4c83454: 46): {big_pops[:12]}"
     assert len(slow_pops) <= 15, f"{len(slow_pops)} pop while the wrist is slow (eeb3a88: 83): {slow_pops[:12]}"
@@ -101,12 +97,7 @@ def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
     handle (PoseSolver.GRIP_TURNS), 46 with the faces keyed (tools/face_keys). What is left is
     where the keyed bat holds the hands across the chest (the finishes) and round the hits,
     where the arms are left as they were (PoseSolver.CONTACT_FRAMES)."""
-    from tools.shots_check import horizontal_excess, humerus_angles
-    far = []
-    for s in shots:
-        for side in ("Left", "Right"):
-            excess = horizontal_excess(*humerus_angles(rig, s.fk[0], side))
-            far += [(s.name, side, int(f)) for f in np.nonzero(excess > FAR_PAST_DEG)[0]]
+    far = arm_frames(shots, rig, "horizontal")
     assert len(far) <= 60, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the horizontal range: {far[:12]}"
 
 
@@ -119,10 +110,5 @@ def test_the_humerus_seldom_turns_past_its_axial_range(shots, rig):
     99 with the bat roll charging continuous elbows, 77 with AXIAL_DEG 20 -> 14, 62 with the
     bottom hand free to turn about the handle (PoseSolver.GRIP_TURNS), 43 with the faces keyed
     where they had been left to the forearms (tools/face_keys)."""
-    from tools.shots_check import axial_excess, humeral_rotations
-    far = []
-    for s in shots:
-        for side in ("Left", "Right"):
-            _, elevation, axial = humeral_rotations(rig, s.fk[0], side)
-            far += [(s.name, side, int(f)) for f in np.nonzero(axial_excess(elevation, axial) > FAR_PAST_DEG)[0]]
+    far = arm_frames(shots, rig, "axial")
     assert len(far) <= 55, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the humerus's axial range: {far[:12]}"
