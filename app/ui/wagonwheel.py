@@ -4,8 +4,9 @@ the top and the off side on the right (a right-hander) — the live Figure 2.6.
 Drawn: the current direction (green off the face, red off the edge or the back), the
 source shot's own direction (grey), the directions of the last solves as the target
 moved (dots, fading with age) and the direction asked for (yellow). A click or a drag
-on the wheel asks for that direction (``settings.aim_direction``/``direction``: the
-update turns the face once the target holds still); a right click drops the request.
+on the wheel, or a fielding position picked under it ("mid-off"), asks for that direction
+(``settings.aim_direction``/``direction``: the update turns the face once the target holds
+still); a right click, or "as the shot goes", drops the request.
 It writes settings only; the engine runs in the update."""
 from __future__ import annotations
 
@@ -66,6 +67,7 @@ def draw_wagon_wheel(settings, state) -> None:
     dl.add_text(imgui.ImVec2(c.x - 12, origin.y + 2), _u32(SOURCE_RGBA), "bowler")
     dl.add_text(imgui.ImVec2(origin.x + size - 22, c.y - 7), _u32(SOURCE_RGBA), "off")
     dl.add_text(imgui.ImVec2(origin.x + 2, c.y - 7), _u32(SOURCE_RGBA), "leg")
+    _positions(settings)
     _caption(settings, r)
     _elevation(settings, r)
 
@@ -89,6 +91,28 @@ def _ask(settings, centre, radius) -> None:
         imgui.set_tooltip(f"click or drag: hit the ball this way ({where}); right click: as the shot goes")
         if imgui.is_mouse_clicked(imgui.MouseButton_.right):
             settings.aim_direction = False
+
+
+def position_named(settings) -> str:
+    """The fielding position the asked direction is (engine.field.POSITIONS), else its degrees,
+    or "as the shot goes" with none asked: what the position picker shows."""
+    if not settings.aim_direction:
+        return "as the shot goes"
+    named = [n for n, az in field.POSITIONS.items() if abs(az - settings.direction) < 0.05]
+    return named[0] if named else f"{settings.direction:+.0f} deg"
+
+
+def _positions(settings) -> None:
+    """Pick a fielding position, leg side round to the off side, to hit the ball to."""
+    imgui.set_next_item_width(imgui.get_content_region_avail().x * 0.6)
+    if not imgui.begin_combo("hit it to", position_named(settings)):
+        return
+    if imgui.selectable("as the shot goes", not settings.aim_direction)[0]:
+        settings.aim_direction = False
+    for name, az in sorted(field.POSITIONS.items(), key=lambda item: item[1]):
+        if imgui.selectable(f"{name} ({az:+.0f} deg)", settings.aim_direction and settings.direction == az)[0]:
+            settings.aim_direction, settings.direction = True, az
+    imgui.end_combo()
 
 
 def _caption(settings, r) -> None:

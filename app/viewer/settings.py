@@ -10,6 +10,7 @@ import numpy as np
 
 from app.errors import UserError, number, position, shorten
 from app.viewer.picking import TARGET_PLANE_Z, clamp_target
+from engine import field as fielding
 from engine.adapt import FACES, TWISTS, AdaptSettings
 from engine.learnt_solver import SOLVERS
 
@@ -158,7 +159,8 @@ def setting_kinds() -> dict[str, str]:
 def check_setting(key, value):
     """``value`` for setting ``key`` as it will be stored, or UserError naming both:
     a bool only from true/false, an int from a whole JSON number, a float from a
-    finite one, each within its SETTING_RANGES; a string from SETTING_CHOICES;
+    finite one, each within its SETTING_RANGES (the direction also a fielding position's
+    name, engine.field); a string from SETTING_CHOICES;
     the target as 3 finite numbers (cm); the pinned shot a name or null."""
     kinds = setting_kinds()
     if not isinstance(key, str) or key not in kinds:
@@ -170,6 +172,12 @@ def check_setting(key, value):
         if not isinstance(value, bool):
             raise UserError(f"{key} must be true or false, got {shorten(repr(value))}")
         return value
+    if key == "direction" and isinstance(value, str):
+        try:                                            # as the CLI's --direction: "mid-off"
+            return fielding.position_azimuth(value)
+        except ValueError:
+            raise UserError(f"direction must be degrees or a fielding position "
+                            f"({', '.join(fielding.POSITIONS)}), got {shorten(repr(value))}") from None
     if kind in ("int", "float"):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or (kind == "int" and isinstance(value, float)):
             raise UserError(f"{key} must be {'a whole number' if kind == 'int' else 'a number'}, "

@@ -136,3 +136,29 @@ def test_an_elevation_asked_with_the_direction_is_hit_by_the_face_tilt(state):
     for _ in range(2):
         update(state, settings, AIM_SETTLE_S / 2)
     assert state.readouts.aim_elevation_reached is None and state.readouts.aim_reached
+
+
+def test_a_fielding_position_asks_for_its_direction(state):
+    """"Cover drive, hit it to mid-off": a script's ``set direction "mid-off"`` (or the
+    wagon wheel's picker) asks for the position's azimuth and the ball goes there; a name
+    that is no position is refused with the names, before the run."""
+    from app.errors import UserError
+    from app.ui.wagonwheel import position_named
+    from app.viewer.update import AIM_SETTLE_S, update
+    from engine import field
+    index = [s.name for s in state.shots].index("cover_drive")
+    settings = ViewerSettings(pinned_shot="cover_drive", target=default_target(state, index))
+    assert position_named(settings) == "as the shot goes"
+    settings.set("aim_direction", True)
+    settings.set("direction", "Mid Off")
+    assert settings.direction == field.POSITIONS["mid-off"] and position_named(settings) == "mid-off"
+    state.solved_key = None
+    for _ in range(5):
+        update(state, settings, AIM_SETTLE_S / 2)
+    r = state.readouts
+    assert r.aim_reached and r.contact == "face" and abs(r.ball_azimuth_deg - field.POSITIONS["mid-off"]) < 3.0
+    assert field.region(r.ball_azimuth_deg) == "mid-off"
+    settings.set("direction", 23.0)
+    assert position_named(settings) == "+23 deg"
+    with pytest.raises(UserError, match="mid-off"):
+        settings.set("direction", "car park")
