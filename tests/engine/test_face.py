@@ -377,7 +377,7 @@ def test_adapt_cli_elevation_json_and_bad_input():
     from typer.testing import CliRunner
     from app.cli import cli
     for bad in (["--elevation", "10"], ["--direction", "10", "--elevation", "91"],
-                ["--direction", "10", "--elevation", "nan"], ["--direction", "silly point"],
+                ["--direction", "10", "--elevation", "nan"], ["--direction", "car park"],
                 ["--direction", "181"]):
         r = CliRunner().invoke(cli, ["adapt", "--shot", "straight_drive", "--hit", "0", "30", "210", *bad])
         assert r.exit_code == 2 and r.stderr.startswith("error:") and "Traceback" not in r.stderr, r.stderr
