@@ -23,6 +23,23 @@ def dof_euler(rig, local_rotations: np.ndarray) -> np.ndarray:
     return np.where((s2 < s1 - 1e-9)[..., None], e2, e1)
 
 
+def clamp_into_limits(rig, local_rotations: np.ndarray, joints=None) -> tuple[np.ndarray, float]:
+    """(``local_rotations (F, J, 4)`` with the Euler angles of ``joints`` (all but the root by
+    default) clamped into the rig's limits, each to its nearer bound; the largest clamp, deg)."""
+    e = dof_euler(rig, local_rotations)
+    lo, hi = (np.where(rig.dof, rig.limits[..., k], 0.0) for k in (0, 1))
+    out = outside(e, lo, hi) > 1e-6      # not the float noise of a locked axis
+    chosen = np.zeros(rig.skeleton.num_joints, bool)
+    chosen[list(range(1, len(chosen))) if joints is None else list(joints)] = True
+    out &= chosen[None, :, None]
+    near_lo = np.abs(wrap(e - lo)) <= np.abs(wrap(e - hi))
+    clamped = np.where(out, np.where(near_lo, lo, hi), e)
+    local = np.array(local_rotations, float, copy=True)
+    moved = out.any(-1)
+    local[moved] = quat.from_euler(clamped[moved], "ZYX")
+    return local, float(np.abs(wrap(clamped - e)).max())
+
+
 def euler_zyx(rig, local_rotations: np.ndarray) -> np.ndarray:
     """Euler (z, y, x) degrees ``(F, J, 3)`` as the bundled BVH files store them."""
     return dof_euler(rig, local_rotations)
@@ -48,17 +65,18 @@ def limit_violations(rig, local_rotations: np.ndarray, tol: float = 0.5) -> list
     return out
 
 
-def right_grip_points(rig, global_rotations, global_positions):
-    """Where the right palm is ``(F, 3)`` and where it should be on the handle ``(F, 3)``."""
+def right_palm_on_handle(rig, global_rotations, global_positions) -> tuple[np.ndarray, np.ndarray]:
+    """Where the right palm holds the handle: (cm off the handle's axis ``(F,)``, cm slid down
+    it from the keyed grip, ``right_grip_below_left`` below the left's ``(F,)``)."""
     sk = rig.skeleton
     lh, rh = sk.index("LeftHand"), sk.index("RightHand")
     grip = np.array(rig.bat["left_grip"], float)
     axis = np.array(rig.bat["axis"], float)
-    want = global_positions[:, lh] + quat.rotate(global_rotations[:, lh],
-                                                  grip + axis * rig.bat["right_grip_below_left"])
-    right_palm = grip * np.array([-1.0, 1.0, 1.0])
-    have = global_positions[:, rh] + quat.rotate(global_rotations[:, rh], right_palm)
-    return have, want
+    right_palm = grip * np.array([-1.0, 1.0, 1.0])         # the mirror of the left palm centre
+    palm = quat.rotate(quat.conjugate(global_rotations[:, lh]), global_positions[:, rh] - global_positions[:, lh]
+                       + quat.rotate(global_rotations[:, rh], right_palm)) - grip
+    along = palm @ axis
+    return np.linalg.norm(palm - along[:, None] * axis, axis=-1), along - rig.bat["right_grip_below_left"]
 
 
 def right_in_left(rig, global_rotations, global_positions):

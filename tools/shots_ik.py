@@ -13,8 +13,8 @@ import numpy as np
 from engine import quat
 from engine.skeleton import forward_kinematics
 
-from .shots_check import (TRUNK_CM, TRUNK_JOINTS, axial_excess, distance_to_polyline, horizontal_excess,
-                          humerothoracic, outside)
+from .shots_check import (TRUNK_CM, TRUNK_JOINTS, axial_excess, clamp_into_limits, distance_to_polyline,
+                          horizontal_excess, humerothoracic, outside)
 
 
 # ----------------------------------------------------------------- small maths
@@ -209,20 +209,43 @@ class PoseSolver:
         info["bat_rot"] = T["bat_rot"]
         body = self._body(g_rot, g_pos, T, trunk_weight=4.0)
         info["Left_reach"] = self._arm(L, g_rot, g_pos, "Left", [l_wrist], [l_rot], 1.0, pref, body)[0]
-        turned = [self._turned_right_hand(r_wrist, r_rot, t) for t in self.GRIP_TURNS]
-        info["Right_reach"], turn = self._arm(L, g_rot, g_pos, "Right", *zip(*turned), -1.0, 0 * pref, body,
-                                              self._turn_cost())
-        info["right_grip_turn"] = self.GRIP_TURNS[turn]
+        # the bat is the top hand's: where its arm is clamped into the limits the bat moves with
+        # it, and the bottom hand holds the handle there (not where the keys had it)
+        grip, bat_rot, info["top_arm_clamped_deg"] = self._clamped_top_arm(L, T["hips_pos"])
+        _, _, r_wrist, r_rot = self.hand_targets(grip, bat_rot)
+        wrists, rots, costs, charges, turns, slides = self._right_grips(r_wrist, r_rot)
+        info["Right_reach"], grip = self._arm(L, g_rot, g_pos, "Right", wrists, rots, -1.0, 0 * pref, body,
+                                              (costs, charges))
+        info["right_grip_turn"], info["right_grip_slide"] = turns[grip], slides[grip]
         return T["hips_pos"], quat.make_continuous(to_q(L)), info
 
+    def _clamped_top_arm(self, L, root_pos):
+        """Clamp the top (left) arm's joints in ``L`` into the rig's limits, in place, and return
+        where it then holds the bat: (left grip point ``(F, 3)``, the bat's frame ``(F, 3, 3)``,
+        the largest clamp in degrees)."""
+        arm = [self.ix["Left" + n] for n in ("Arm", "ArmRoll", "ForeArm", "ForeArmRoll", "Hand")]
+        q, largest = clamp_into_limits(self.rig, to_q(L), arm)
+        L[:, arm] = quat.to_matrix(q[:, arm])
+        g_rot, g_pos = self.fk(root_pos, L)
+        hand = g_rot[:, self.ix["LeftHand"]]
+        return g_pos[:, self.ix["LeftHand"]] + hand @ self.left_grip, hand @ self.left_in_bat.T, largest
+
     # The bottom hand holds the handle loosely (the coaches' thumb-and-forefinger bottom hand):
-    # it may turn about the handle, which the top hand may not (the bat is the top hand's).
-    # Where the keyed bat turns the hands faster than the bottom arm's limits follow, the
-    # turn lets its elbow stay on its side instead of swinging round the arm.
+    # it may turn about the handle, and slide down it, which the top hand may not (the bat is
+    # the top hand's). Where the keyed bat turns the hands faster than the bottom arm's limits
+    # follow, the turn lets its elbow stay on its side instead of swinging round the arm; where
+    # the hands' keyed spacing would fold the bottom arm or swing its elbow round, the slide
+    # gives it room (library: elbow pops over 20 cm 15 -> 11, arms folded 14 -> 7).
     GRIP_TURNS = np.array([0.0, -15.0, 15.0, -30.0, 30.0])   # deg about the handle; the keyed grip first
     GRIP_TURN_DEG = 15.0    # a turn this far costs as much as the wrist 20 deg off its preference
-    GRIP_STEP_WEIGHT = 5.0  # per (7.5 deg)^2 the turn changes between frames
+    GRIP_STEP_WEIGHT = 5.0  # per (7.5 deg or GRIP_SLIDE_STEP_CM)^2 the grip changes between frames
     GRIP_STEP_DEG = 30.0    # and no faster than this a frame (900 deg/s): faster, the glove spins
+    # cm down the handle from the keyed grip (11 cm below the top hand's): at 7.5 the glove's
+    # edge is still 2 cm short of the blade (the handle is 30 cm)
+    GRIP_SLIDES = np.array([0.0, 2.5, 5.0, 7.5])
+    GRIP_SLIDE_CM = 1.0     # a slide of s cm costs (s / GRIP_SLIDE_CM)^2 a frame: only where it buys that
+    GRIP_SLIDE_STEP_CM = 2.5    # and no faster than this a frame (75 cm/s)
+    GRIP_HELD_FRAMES = 3    # the first and last frames hold the shared stance's and rest's grip
 
     def _turned_right_hand(self, wrist, hand_rot, turn: float):
         """The right wrist ``(F, 3)`` and hand rotation ``(F, 3, 3)`` turned ``turn`` degrees
@@ -231,12 +254,28 @@ class PoseSolver:
         turned = bat_rot @ rot_axis(2, turn) @ self.right_in_bat
         return wrist + (hand_rot - turned) @ self.right_grip, turned
 
-    def _turn_cost(self):
-        """(cost of each grip turn ``(G,)``, charge between turns ``(G, G)``) for ``_arm``."""
-        t = self.GRIP_TURNS
-        step = np.abs(t[:, None] - t[None, :])
-        return (t / self.GRIP_TURN_DEG) ** 2, (self.GRIP_STEP_WEIGHT * (step / 7.5) ** 2
-                                               + 1e4 * np.maximum(0.0, step - self.GRIP_STEP_DEG) ** 2)
+    def _right_grips(self, wrist, hand_rot):
+        """The bottom hand's candidate grips on the handle for ``_arm``, from its keyed ``wrist``
+        ``(F, 3)`` and ``hand_rot`` ``(F, 3, 3)``: every GRIP_TURNS x GRIP_SLIDES. Returns (G
+        wrists ``(F, 3)``, G hand rotations ``(F, 3, 3)``, costs ``(F, G)``, charges between
+        them ``(G, G)``, turns ``(G,)`` deg, slides ``(G,)`` cm); the keyed grip first."""
+        F = len(wrist)
+        turns = np.tile(self.GRIP_TURNS, len(self.GRIP_SLIDES))
+        slides = np.repeat(self.GRIP_SLIDES, len(self.GRIP_TURNS))
+        down = -(hand_rot @ self.right_in_bat.T)[..., 2]          # the bat's Z points up the handle
+        grips = [self._turned_right_hand(wrist, hand_rot, t) for t in self.GRIP_TURNS]
+        wrists = [grips[g % len(grips)][0] + s * down for g, s in enumerate(slides)]
+        rots = [grips[g % len(grips)][1] for g in range(len(slides))]
+        costs = np.tile((turns / self.GRIP_TURN_DEG) ** 2 + (slides / self.GRIP_SLIDE_CM) ** 2, (F, 1))
+        held = np.zeros(F, bool)
+        held[:self.GRIP_HELD_FRAMES] = held[-self.GRIP_HELD_FRAMES:] = True
+        costs[np.ix_(held, slides != 0.0)] = np.inf
+        turn_step = np.abs(turns[:, None] - turns[None, :])
+        slide_step = np.abs(slides[:, None] - slides[None, :])
+        charges = (self.GRIP_STEP_WEIGHT * ((turn_step / 7.5) ** 2 + (slide_step / self.GRIP_SLIDE_STEP_CM) ** 2)
+                   + 1e4 * (np.maximum(0.0, turn_step - self.GRIP_STEP_DEG) ** 2
+                            + np.maximum(0.0, slide_step - self.GRIP_SLIDE_STEP_CM) ** 2))
+        return wrists, rots, costs, charges, turns, slides
 
     ROLLS = np.arange(-180.0, 180.0, 7.5)     # the full circle: a follow-through may turn the face over
 
@@ -347,7 +386,7 @@ class PoseSolver:
 
         The elbow may sit anywhere on its circle of solutions; a Viterbi pass
         over 72 elbow angles per frame, and over the hand's candidate poses (``wrists``,
-        ``hand_rots``: G of ``(F, 3)`` and ``(F, 3, 3)``; ``turn_cost``: their costs ``(G,)``
+        ``hand_rots``: G of ``(F, 3)`` and ``(F, 3, 3)``; ``turn_cost``: their costs ``(F, G)``
         and the charges ``(G, G)`` between them, for G > 1), picks the path whose joint angles
         stay comfortably inside the limits (wrist near its preferred deviation, small twists)
         and that moves smoothly from frame to frame. Returns (reach ``(F,)``: wrist distance
@@ -368,10 +407,14 @@ class PoseSolver:
                                for a, w in zip(angs, wrists)], 1)                         # (F, G*K)
         pose = np.repeat(np.arange(G), K)
         # the elbow may move as far as the first pose's wrist (the keyed one) moves
-        extra = self._elbow_charge(np.concatenate([a["elbow"] for a in angs], 1), wrists[0], S)
+        elbows, allowed = np.concatenate([a["elbow"] for a in angs], 1), self._elbow_step(wrists[0], S)
+        between = 0.0
         if turn_cost is not None:
-            cost = cost + turn_cost[0][pose]
-            extra = extra + turn_cost[1][pose][:, pose]
+            cost = cost + turn_cost[0][:, pose]
+            between = turn_cost[1][pose][:, pose]
+
+        def extra(f):       # frame by frame: (F-1, G*K, G*K) at once is gigabytes for the bottom hand
+            return step_charge(elbows[f:f + 2], allowed[f:f + 1], self.ELBOW_WEIGHT)[0] + between
         choice = viterbi(cost, np.tile(psi, G), weight=15.0, extra=extra)
         chosen = pose[choice]
         wrist = np.stack(wrists)[chosen, np.arange(F)]
@@ -394,11 +437,6 @@ class PoseSolver:
         a pop through the body the viewer shows (up to 45 cm in one frame before it was charged)."""
         return np.maximum(np.linalg.norm(np.diff(wrist, axis=0), axis=-1),
                           np.linalg.norm(np.diff(shoulder, axis=0), axis=-1)) + self.ELBOW_SLACK_CM
-
-    def _elbow_charge(self, elbows, wrist, shoulder):
-        """Transition charges ``(F-1, K, K)`` from elbow circle angle i at frame f to j at
-        f + 1: ELBOW_WEIGHT per cm^2 the elbow moves beyond ``_elbow_step``."""
-        return step_charge(elbows, self._elbow_step(wrist, shoulder), self.ELBOW_WEIGHT)
 
     def _arm_angles(self, S, W, hand_rot, parent, l1, l2, s, psi):
         """Joint angles for elbow circle angles ``psi (F or 1, K)``: dict of (F, K, ...) arrays."""
@@ -503,7 +541,8 @@ def continuity_charge(cost: np.ndarray, points: np.ndarray, allowed: np.ndarray,
 def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float, extra=None) -> np.ndarray:
     """Cheapest path of indices ``(F,)`` through ``cost (F, K)`` with a
     ``weight * (circular angle step in radians)^2`` charge between frames, plus
-    ``extra[f, i, j]`` ``(F-1, K, K)`` from index i at frame f to j at f + 1."""
+    ``extra[f, i, j]`` ``(F-1, K, K)`` (or ``extra(f)``, ``(K, K)``) from index i at
+    frame f to j at f + 1."""
     F, K = cost.shape
     # the first and last frames are shared by every shot: pin them to their
     # own best choice so the path cannot make them differ between shots
@@ -517,7 +556,8 @@ def viterbi(cost: np.ndarray, psi: np.ndarray, weight: float, extra=None) -> np.
     acc = cost[0].copy()
     back = np.zeros((F, K), int)
     for f in range(1, F):
-        tot = acc[:, None] + trans + (0.0 if extra is None else extra[f - 1])   # from i to j
+        step_extra = 0.0 if extra is None else extra(f - 1) if callable(extra) else extra[f - 1]
+        tot = acc[:, None] + trans + step_extra                                  # from i to j
         back[f] = np.argmin(tot, axis=0)
         acc = tot[back[f], np.arange(K)] + cost[f]
     path = np.zeros(F, int)

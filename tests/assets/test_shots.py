@@ -99,20 +99,26 @@ def test_bvh_stores_the_dof_branch(shots, rig):
 
 def test_right_hand_holds_the_handle(shots, rig):
     """The right palm stays on the handle. The bottom hand holds it loosely: it may turn
-    about the handle (tools/shots_ik.PoseSolver.GRIP_TURNS, GRIP_STEP_DEG a frame at most),
-    but not tilt off it, and it holds the stance's grip at the first and last frames."""
+    about the handle (tools/shots_ik.PoseSolver.GRIP_TURNS, GRIP_STEP_DEG a frame at most)
+    and slide down it (GRIP_SLIDES, GRIP_SLIDE_STEP_CM a frame at most), the glove never
+    onto the blade, but not tilt off it, and it holds the stance's grip at the first and
+    last frames."""
+    from tools.shots_check import right_palm_on_handle
     from tools.shots_ik import PoseSolver
     sk = rig.skeleton
     lh, rh = sk.index("LeftHand"), sk.index("RightHand")
-    grip = np.array(rig.bat["left_grip"], float)
     axis = np.array(rig.bat["axis"], float)
-    right_palm = grip * np.array([-1.0, 1.0, 1.0])      # mirror of the left palm centre
     widest, fastest = np.abs(PoseSolver.GRIP_TURNS).max(), PoseSolver.GRIP_STEP_DEG
+    # cm of handle below the keyed grip: the glove (half 4.5 cm wide) stays off the blade
+    handle_left = rig.bat["handle_length"] - rig.bat["grip_to_top"] - rig.bat["right_grip_below_left"]
+    assert PoseSolver.GRIP_SLIDES.max() + 4.5 < handle_left
     for s in shots.values():
         g_rot, g_pos = s.fk
-        on_handle = g_pos[:, lh] + quat.rotate(g_rot[:, lh], grip + axis * rig.bat["right_grip_below_left"])
-        palm = g_pos[:, rh] + quat.rotate(g_rot[:, rh], right_palm)
-        assert np.linalg.norm(palm - on_handle, axis=-1).max() < 1.5, s.name
+        off_axis, slide = right_palm_on_handle(rig, g_rot, g_pos)
+        assert off_axis.max() < 1.5, s.name
+        assert -1.5 < slide.min() and slide.max() < PoseSolver.GRIP_SLIDES.max() + 1.5, s.name
+        assert np.abs(np.diff(slide)).max() < PoseSolver.GRIP_SLIDE_STEP_CM + 1.0, s.name
+        assert abs(slide[0]) < 1.5 and abs(slide[-1]) < 1.5, s.name
         rel_rot = quat.mul(quat.conjugate(g_rot[:, lh]), g_rot[:, rh])
         turn = quat.mul(rel_rot, quat.conjugate(rel_rot[:1]))          # from the stance's grip
         tilted = quat.rotate(turn, np.broadcast_to(axis, (len(turn), 3))) @ axis
