@@ -43,7 +43,15 @@ Not yet anatomical (issue 14, see the shots' report):
   deviation (the shots use up to 75). Turning the grip round (the toe toward the
   thumb, diagonal 40-70 deg) asks instead for 60-145 deg of ulnar deviation and
   100-160 of forearm roll with today's key poses: the bat keys of every shot would
-  have to be re-authored for it.
+  have to be re-authored for it. Measured over the whole elbow circle (2026-12-04,
+  toe 50 deg from the fingers toward the thumb, face along the back of the hand,
+  Hand y AAOS): at the straight drive's stance the elbows that keep the deviation
+  within 30 need the forearm rolled 140-180 deg, and at its hit the best needs 101
+  deg of ulnar deviation; the hands and the trunk, not only the bat, sit where the
+  upside-down grip put them. Tilting the present grip instead (toe beyond the little
+  finger, 50 deg toward the fingertips) fits the wrist to AAOS in all but the
+  follow-throughs, but the authoring's arms then lie past the shoulder's ranges
+  (library: elbow pops over 20 cm 42, horizontal 168, axial 150, folds 55).
 - Arm x + ArmRoll x, the humeral rotation (AAOS internal 70 / external 90), hold +-90
   each: the bat's poses in the backlifts and follow-throughs ask for up to 150-180.
 """
