@@ -235,7 +235,7 @@ class PoseSolver:
     # the top hand's). Where the keyed bat turns the hands faster than the bottom arm's limits
     # follow, the turn lets its elbow stay on its side instead of swinging round the arm; where
     # the hands' keyed spacing would fold the bottom arm or swing its elbow round, the slide
-    # gives it room (library: elbow pops over 20 cm 15 -> 11, arms folded 14 -> 7).
+    # gives it room (library: elbow pops over 20 cm 15 -> 10, arms folded 14 -> 7).
     GRIP_TURNS = np.array([0.0, -15.0, 15.0, -30.0, 30.0])   # deg about the handle; the keyed grip first
     GRIP_TURN_DEG = 15.0    # a turn this far costs as much as the wrist 20 deg off its preference
     GRIP_STEP_WEIGHT = 5.0  # per (7.5 deg or GRIP_SLIDE_STEP_CM)^2 the grip changes between frames

@@ -86,3 +86,26 @@ def test_the_bottom_hand_turns_about_the_handle_with_its_palm_on_it(turn):
     angle = np.degrees(np.arccos(np.clip((np.trace(delta, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)))
     assert np.allclose(angle, abs(turn), atol=1e-6)
     assert not np.allclose(wrist, r_wrist)                     # the wrist goes round with it
+
+
+def test_the_bottom_hand_slides_down_the_handle_toward_the_blade():
+    """PoseSolver._right_grips: every candidate keeps the bottom palm on the handle's axis,
+    a slide moves it that far toward the toe, the first and last frames (the shared stance
+    and rest) allow no slide, and a slide faster than GRIP_SLIDE_STEP_CM a frame is charged
+    beyond anything a comfortable one costs."""
+    rig = default_rig()
+    solver = PoseSolver(rig)
+    grip, d, B = keyed_bats(8)
+    _, _, r_wrist, r_rot = solver.hand_targets(grip, B)
+    wrists, rots, costs, charges, turns, slides = solver._right_grips(r_wrist, r_rot)
+    palm = np.asarray(rig.bat["left_grip"]) * [-1.0, 1.0, 1.0]
+    keyed_palm = r_wrist + r_rot @ palm
+    assert turns[0] == slides[0] == 0.0 and sorted(set(slides)) == sorted(solver.GRIP_SLIDES)
+    for w, r, s in zip(wrists, rots, slides):
+        assert np.allclose(w + r @ palm, keyed_palm + s * d, atol=1e-9)
+    held, moved = solver.GRIP_HELD_FRAMES, slides > 0.0
+    assert np.isinf(costs[:held][:, moved]).all() and np.isinf(costs[-held:][:, moved]).all()
+    assert np.isfinite(costs[held:-held]).all() and (costs[:, 0] == 0.0).all()
+    same_turn = turns[:, None] == turns[None, :]
+    fast = np.abs(slides[:, None] - slides[None, :]) > solver.GRIP_SLIDE_STEP_CM
+    assert charges[fast & same_turn].min() > 100.0 * charges[~fast & same_turn].max()

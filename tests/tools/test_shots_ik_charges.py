@@ -54,3 +54,5 @@ def test_a_state_whose_best_choice_would_pop_is_charged_and_avoided():
     charged, free = viterbi(unary, np.zeros(2), 0.0, extra=charge), viterbi(unary, np.zeros(2), 0.0)
     assert list(free) == [0, 1, 1, 0]                 # through the pop
     assert list(charged) == [0, 1, 0, 0]              # roll 1 only where its elbow stays put
+    # the charges given frame by frame (as the arms' pass does) choose the same path
+    assert list(viterbi(unary, np.zeros(2), 0.0, extra=lambda f: charge[f])) == list(charged)
