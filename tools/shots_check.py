@@ -30,7 +30,10 @@ def clamp_into_limits(rig, local_rotations: np.ndarray, joints=None) -> tuple[np
     lo, hi = (np.where(rig.dof, rig.limits[..., k], 0.0) for k in (0, 1))
     out = outside(e, lo, hi) > 1e-6      # not the float noise of a locked axis
     chosen = np.zeros(rig.skeleton.num_joints, bool)
-    chosen[list(range(1, len(chosen))) if joints is None else list(joints)] = True
+    if joints is None:
+        chosen[1:] = True
+    else:
+        chosen[list(joints)] = True
     out &= chosen[None, :, None]
     near_lo = np.abs(wrap(e - lo)) <= np.abs(wrap(e - hi))
     clamped = np.where(out, np.where(near_lo, lo, hi), e)

@@ -105,12 +105,13 @@ def position_named(settings) -> str:
 def _positions(settings) -> None:
     """Pick a fielding position, leg side round to the off side, to hit the ball to."""
     imgui.set_next_item_width(imgui.get_content_region_avail().x * 0.6)
-    if not imgui.begin_combo("hit it to", position_named(settings)):
+    shown = position_named(settings)
+    if not imgui.begin_combo("hit it to", shown):
         return
     if imgui.selectable("as the shot goes", not settings.aim_direction)[0]:
         settings.aim_direction = False
     for name, az in sorted(field.POSITIONS.items(), key=lambda item: item[1]):
-        if imgui.selectable(f"{name} ({az:+.0f} deg)", settings.aim_direction and settings.direction == az)[0]:
+        if imgui.selectable(f"{name} ({az:+.0f} deg)", shown == name)[0]:
             settings.aim_direction, settings.direction = True, az
     imgui.end_combo()
 
