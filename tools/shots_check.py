@@ -348,7 +348,7 @@ def trunk_problems(rig, global_positions) -> list[str]:
 
 
 # An elbow outpacing its wrist and its shoulder by more than POP_CM in a frame has swung
-# round the shoulder-wrist line: a pop through the body (tools/shots_ik charges it; where the
+# round the shoulder-wrist line: a pop through the body (tools/shots_arms charges it; where the
 # keyed bat turns a hand beyond what the arm's limits follow, some remain).
 POP_CM = 5.0
 

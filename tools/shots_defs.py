@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .shots_ik import perp, unit
+from .shots_maths import perp, unit
 from .shots_keys import face_for_forearm
 
 V = lambda *a: np.array(a, float)

@@ -6,7 +6,7 @@ keys with a monotone cubic (PCHIP): no overshoot, so a planted foot keyed
 twice at the same spot stays exactly there, and a hold is a hold.
 
 Channels (world space, cm / degrees):
-  hips_pos (3), hips_ypr (3)      pelvis position, yaw/pitch/roll (see shots_ik.ypr)
+  hips_pos (3), hips_ypr (3)      pelvis position, yaw/pitch/roll (see shots_maths.ypr)
   chest_ypr (3)                   Spine2 orientation
   look (3)                        point the eyes look at (head stays level)
   l_toe, r_toe (3)                ball of the foot (ToeBase joint)
@@ -22,7 +22,8 @@ from scipy.interpolate import PchipInterpolator
 
 from engine.rig import default_rig
 
-from .shots_ik import bat_from_grip, grip_frame, perp, rot_axis, unit, ypr
+from .shots_ik import bat_from_grip, grip_frame
+from .shots_maths import perp, rot_axis, unit, ypr
 
 FPS = 30.0
 ANKLE_ABOVE_TOE = np.array([0.0, -6.0, 13.0])   # ToeBase offset under Foot (rig)

@@ -77,12 +77,12 @@ def test_elbows_seldom_swing_round_the_arm(shots, rig):
     (test_upper_arms_stay_in_the_shoulders_horizontal_range and
     test_the_humerus_seldom_turns_past_its_axial_range): 80 before those charges, 93 after,
     all but 26 with the wrist moving fast (29 before). With the bat roll's pass charging what
-    a continuous elbow costs each arm (tools/shots_ik.continuity_charge), the large ones (over
+    a continuous elbow costs each arm (tools/shots_viterbi.continuity_charge), the large ones (over
     BIG_POP_CM) fell 46 -> 37, all 95 -> 93, with the wrist slow 21 -> 18; with the humerus's
     axial range charged harder (AXIAL_DEG 14): 38, 81 and 12; with the bottom hand free to
-    turn about the handle (PoseSolver.GRIP_TURNS), 31, 80 and 15; with the faces keyed where
+    turn about the handle (BottomHand.TURNS), 31, 80 and 15; with the faces keyed where
     they had been left to the forearms (tools/face_keys), 15, 52 and 10; with the bottom
-    hand free to slide down the handle (PoseSolver.GRIP_SLIDES), 10, 45 and 13."""
+    hand free to slide down the handle (BottomHand.SLIDES), 10, 45 and 13."""
     pops, slow_pops, big_pops = (arm_frames(shots, rig, k) for k in ("pops", "slow_pops", "big_pops"))
     assert len(pops) <= 55, f"{len(pops)} arm-frames pop (main at eeb3a88: 183): {pops[:12]}"
     assert len(big_pops) <= 14, f"{len(big_pops)} pop over {BIG_POP_CM:.0f} cm (4c83454: 46): {big_pops[:12]}"
@@ -93,12 +93,12 @@ def test_upper_arms_stay_in_the_shoulders_horizontal_range(shots, rig):
     """Near shoulder height an upper arm crosses the chest at most 135 deg from straight out
     to the side and swings behind it at most 45 (AAOS). Past that by 30 deg or more it lies
     through the neck or the chest: 311 arm-frames over the library before the authoring
-    solver charged it (tools/shots_ik.PoseSolver.SHOULDER_DEG), 95 after, 97 with the
+    solver charged it (tools/shots_arms.ArmSolver.SHOULDER_DEG), 95 after, 97 with the
     humerus's axial rotation charged too, 82 with the bottom hand free to turn about the
-    handle (PoseSolver.GRIP_TURNS), 46 with the faces keyed (tools/face_keys), 40 with the
-    bottom hand free to slide down the handle (PoseSolver.GRIP_SLIDES). What is left is
+    handle (BottomHand.TURNS), 46 with the faces keyed (tools/face_keys), 40 with the
+    bottom hand free to slide down the handle (BottomHand.SLIDES). What is left is
     where the keyed bat holds the hands across the chest (the finishes) and round the hits,
-    where the arms are left as they were (PoseSolver.CONTACT_FRAMES)."""
+    where the arms are left as they were (ArmSolver.CONTACT_FRAMES)."""
     far = arm_frames(shots, rig, "horizontal")
     assert len(far) <= 50, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the horizontal range: {far[:12]}"
 
@@ -108,10 +108,10 @@ def test_the_humerus_seldom_turns_past_its_axial_range(shots, rig):
     humerus turns at most 70 deg internally and 90 externally (AAOS). 30 deg or more past
     that, the elbow points where no arm can: 386 arm-frames over the library at the start
     of 12-03 late, 285 with the shoulder's horizontal range, 103 since the authoring solver
-    charges it too (PoseSolver.AXIAL_DEG), 94 with the forward defence's backlift re-keyed,
+    charges it too (ArmSolver.AXIAL_DEG), 94 with the forward defence's backlift re-keyed,
     99 with the bat roll charging continuous elbows, 77 with AXIAL_DEG 20 -> 14, 62 with the
-    bottom hand free to turn about the handle (PoseSolver.GRIP_TURNS), 43 with the faces keyed
+    bottom hand free to turn about the handle (BottomHand.TURNS), 43 with the faces keyed
     where they had been left to the forearms (tools/face_keys), 25 with the bottom hand free
-    to slide down the handle (PoseSolver.GRIP_SLIDES)."""
+    to slide down the handle (BottomHand.SLIDES)."""
     far = arm_frames(shots, rig, "axial")
     assert len(far) <= 35, f"{len(far)} arm-frames {FAR_PAST_DEG:.0f} deg past the humerus's axial range: {far[:12]}"

@@ -99,25 +99,25 @@ def test_bvh_stores_the_dof_branch(shots, rig):
 
 def test_right_hand_holds_the_handle(shots, rig):
     """The right palm stays on the handle. The bottom hand holds it loosely: it may turn
-    about the handle (tools/shots_ik.PoseSolver.GRIP_TURNS, GRIP_STEP_DEG a frame at most)
-    and slide down it (GRIP_SLIDES, GRIP_SLIDE_STEP_CM a frame at most), the glove never
+    about the handle (tools/shots_grips.BottomHand.TURNS, STEP_DEG a frame at most)
+    and slide down it (SLIDES, SLIDE_STEP_CM a frame at most), the glove never
     onto the blade, but not tilt off it, and it holds the stance's grip at the first and
     last frames."""
     from tools.shots_check import right_palm_on_handle
-    from tools.shots_ik import PoseSolver
+    from tools.shots_grips import BottomHand
     sk = rig.skeleton
     lh, rh = sk.index("LeftHand"), sk.index("RightHand")
     axis = np.array(rig.bat["axis"], float)
-    widest, fastest = np.abs(PoseSolver.GRIP_TURNS).max(), PoseSolver.GRIP_STEP_DEG
+    widest, fastest = np.abs(BottomHand.TURNS).max(), BottomHand.STEP_DEG
     # cm of handle below the keyed grip: the glove (half 4.5 cm wide) stays off the blade
     handle_left = rig.bat["handle_length"] - rig.bat["grip_to_top"] - rig.bat["right_grip_below_left"]
-    assert PoseSolver.GRIP_SLIDES.max() + 4.5 < handle_left
+    assert BottomHand.SLIDES.max() + 4.5 < handle_left
     for s in shots.values():
         g_rot, g_pos = s.fk
         off_axis, slide = right_palm_on_handle(rig, g_rot, g_pos)
         assert off_axis.max() < 1.5, s.name
-        assert -1.5 < slide.min() and slide.max() < PoseSolver.GRIP_SLIDES.max() + 1.5, s.name
-        assert np.abs(np.diff(slide)).max() < PoseSolver.GRIP_SLIDE_STEP_CM + 1.0, s.name
+        assert -1.5 < slide.min() and slide.max() < BottomHand.SLIDES.max() + 1.5, s.name
+        assert np.abs(np.diff(slide)).max() < BottomHand.SLIDE_STEP_CM + 1.0, s.name
         assert abs(slide[0]) < 1.5 and abs(slide[-1]) < 1.5, s.name
         rel_rot = quat.mul(quat.conjugate(g_rot[:, lh]), g_rot[:, rh])
         turn = quat.mul(rel_rot, quat.conjugate(rel_rot[:1]))          # from the stance's grip
@@ -293,7 +293,7 @@ FOLDED_CM = 20.0            # a wrist this near its shoulder: the elbow bent pas
 FOLDED_FRAMES = 28          # arm-frames over the library (52 before the roll choice charged a fold, 14 at 078b55c;
                             # 23 since the shoulder's ranges are charged: 14-20 cm, mostly in follow-throughs;
                             # 24 -> 22 since the roll's choice charges what a continuous elbow costs; 26 with
-                            # the humerus's axial range charged harder, PoseSolver.AXIAL_DEG 20 -> 14; 25 with
+                            # the humerus's axial range charged harder, ArmSolver.AXIAL_DEG 20 -> 14; 25 with
                             # the bottom hand free to turn about the handle, its fold charged too)
 
 

@@ -6,7 +6,9 @@ import pytest
 
 from engine.rig import default_rig
 from tools.make_rig import bat_joint_offset
-from tools.shots_ik import PoseSolver, bat_from_grip, grip_frame, perp, rot_axis, unit
+from tools.shots_grips import BottomHand
+from tools.shots_ik import PoseSolver, bat_from_grip, grip_frame
+from tools.shots_maths import perp, rot_axis, unit
 from tools.shots_keys import bat_frame, face_for_forearm
 
 
@@ -72,13 +74,13 @@ def test_a_grip_whose_face_is_not_across_the_axis_is_refused():
 
 @pytest.mark.parametrize("turn", [-30.0, 15.0, 30.0])
 def test_the_bottom_hand_turns_about_the_handle_with_its_palm_on_it(turn):
-    """PoseSolver._turned_right_hand: the bottom hand's palm stays where it held the handle,
+    """BottomHand.turned: the bottom hand's palm stays where it held the handle,
     and the hand's rotation differs from the keyed one by ``turn`` about the handle only."""
     rig = default_rig()
     solver = PoseSolver(rig)
     grip, d, B = keyed_bats()
     _, _, r_wrist, r_rot = solver.hand_targets(grip, B)
-    wrist, rot = solver._turned_right_hand(r_wrist, r_rot, turn)
+    wrist, rot = solver.bottom_hand.turned(r_wrist, r_rot, turn)
     palm = np.asarray(rig.bat["left_grip"]) * [-1.0, 1.0, 1.0]
     assert np.allclose(wrist + rot @ palm, r_wrist + r_rot @ palm, atol=1e-9)
     delta = rot @ np.swapaxes(r_rot, -1, -2)                  # the world turn from keyed to turned
@@ -89,23 +91,23 @@ def test_the_bottom_hand_turns_about_the_handle_with_its_palm_on_it(turn):
 
 
 def test_the_bottom_hand_slides_down_the_handle_toward_the_blade():
-    """PoseSolver._right_grips: every candidate keeps the bottom palm on the handle's axis,
+    """BottomHand.grips: every candidate keeps the bottom palm on the handle's axis,
     a slide moves it that far toward the toe, the first and last frames (the shared stance
-    and rest) allow no slide, and a slide faster than GRIP_SLIDE_STEP_CM a frame is charged
+    and rest) allow no slide, and a slide faster than SLIDE_STEP_CM a frame is charged
     beyond anything a comfortable one costs."""
     rig = default_rig()
     solver = PoseSolver(rig)
     grip, d, B = keyed_bats(8)
     _, _, r_wrist, r_rot = solver.hand_targets(grip, B)
-    wrists, rots, costs, charges, turns, slides = solver._right_grips(r_wrist, r_rot)
+    wrists, rots, costs, charges, turns, slides = solver.bottom_hand.grips(r_wrist, r_rot)
     palm = np.asarray(rig.bat["left_grip"]) * [-1.0, 1.0, 1.0]
     keyed_palm = r_wrist + r_rot @ palm
-    assert turns[0] == slides[0] == 0.0 and sorted(set(slides)) == sorted(solver.GRIP_SLIDES)
+    assert turns[0] == slides[0] == 0.0 and sorted(set(slides)) == sorted(BottomHand.SLIDES)
     for w, r, s in zip(wrists, rots, slides):
         assert np.allclose(w + r @ palm, keyed_palm + s * d, atol=1e-9)
-    held, moved = solver.GRIP_HELD_FRAMES, slides > 0.0
+    held, moved = BottomHand.HELD_FRAMES, slides > 0.0
     assert np.isinf(costs[:held][:, moved]).all() and np.isinf(costs[-held:][:, moved]).all()
     assert np.isfinite(costs[held:-held]).all() and (costs[:, 0] == 0.0).all()
     same_turn = turns[:, None] == turns[None, :]
-    fast = np.abs(slides[:, None] - slides[None, :]) > solver.GRIP_SLIDE_STEP_CM
+    fast = np.abs(slides[:, None] - slides[None, :]) > BottomHand.SLIDE_STEP_CM
     assert charges[fast & same_turn].min() > 100.0 * charges[~fast & same_turn].max()

@@ -3,7 +3,7 @@ import itertools
 
 import numpy as np
 
-from tools.shots_ik import continuity_charge, viterbi
+from tools.shots_viterbi import continuity_charge, viterbi
 
 
 def brute_force(cost, points, allowed, weight):
