@@ -21,6 +21,10 @@ class OrbitCamera:
     pitch: float = 12.0       # degrees above the horizon
     distance: float = 560.0   # cm
     fovy: float = 38.0
+    # the default window's scene viewport (920 x 674 px): in a narrower one (a window snapped to
+    # half a screen, a portrait one) the view keeps this one's horizontal field of view, so the
+    # batsman is not cut off at the sides
+    min_aspect: float = 920.0 / 674.0
     near: float = 5.0
     far: float = 12000.0
     _view_cache: tuple | None = field(default=None, init=False, repr=False, compare=False)
@@ -42,17 +46,27 @@ class OrbitCamera:
             self._view_cache = (key, look_at(self.eye, self.pivot))
         return self._view_cache[1].copy()
 
+    def fovy_for(self, aspect: float) -> float:
+        """The vertical field of view (deg) at viewport ``aspect`` (width / height): ``fovy``,
+        widened below ``min_aspect`` to keep the horizontal one (at most 150)."""
+        aspect = max(aspect, 1e-3)
+        if aspect >= self.min_aspect:
+            return self.fovy
+        half = np.arctan(np.tan(np.radians(self.fovy) / 2) * self.min_aspect / aspect)
+        return float(min(np.degrees(2 * half), 150.0))
+
     def proj(self, aspect: float) -> np.ndarray:
-        return perspective(self.fovy, max(aspect, 1e-3), self.near, self.far)
+        return perspective(self.fovy_for(aspect), max(aspect, 1e-3), self.near, self.far)
 
     # -- mouse gestures (deltas in pixels) ---------------------------------
     def orbit(self, dx: float, dy: float) -> None:
         self.yaw = (self.yaw - 0.3 * dx + 180.0) % 360.0 - 180.0
         self.pitch = float(np.clip(self.pitch + 0.3 * dy, -5.0, 89.0))
 
-    def pan(self, dx: float, dy: float, viewport_height: float) -> None:
+    def pan(self, dx: float, dy: float, viewport_width: float, viewport_height: float) -> None:
         # One pixel moves the pivot by the size of a pixel at the pivot's depth.
-        scale = 2 * self.distance * np.tan(np.radians(self.fovy) / 2) / max(viewport_height, 1.0)
+        fovy = self.fovy_for(viewport_width / max(viewport_height, 1.0))
+        scale = 2 * self.distance * np.tan(np.radians(fovy) / 2) / max(viewport_height, 1.0)
         v = self.view()
         right, up = v[0, :3].astype(float), v[1, :3].astype(float)
         self.pivot = self.pivot + scale * (-dx * right + dy * up)

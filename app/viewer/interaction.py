@@ -92,7 +92,7 @@ class Interaction:
         elif g.kind == "orbit":
             self.camera.orbit(dx, dy)
         elif g.kind == "pan":
-            self.camera.pan(dx, dy, self.state.viewport[3])
+            self.camera.pan(dx, dy, self.state.viewport[2], self.state.viewport[3])
         self._update_cursor()
 
     def mouse_button(self, button: int, down: bool, x: float | None = None, y: float | None = None) -> None:

@@ -140,10 +140,15 @@ class ViewerSettings:
     def set(self, key: str, value) -> None:
         """Set one setting by name (``overlays.flight`` for overlays) - used by scripts.
         ``value`` goes through :func:`check_setting` (UserError if it is no such
-        setting or a wrong value); a value that passed it once never fails here."""
+        setting or a wrong value); a value that passed it once never fails here. A
+        ``direction`` set asks for it, as the CLI's ``--direction`` and a click on the wagon
+        wheel do (``aim_direction`` false drops it again); an ``elevation`` set asks for it
+        with the direction asked (``aim_elevation``)."""
         value = check_setting(key, value)
         obj, name = (self.overlays, key.split(".", 1)[1]) if key.startswith("overlays.") else (self, key)
         setattr(obj, name, value.copy() if isinstance(value, np.ndarray) else value)
+        if key in ("direction", "elevation"):
+            setattr(self, "aim_" + key, True)
         self.sanitise()
 
 

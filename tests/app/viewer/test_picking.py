@@ -52,10 +52,38 @@ def test_camera_gestures_keep_finite_matrices():
     cam = OrbitCamera()
     for d in (1e6, -1e6, 0.0):
         cam.orbit(d, d)
-        cam.pan(d, -d, 674)
+        cam.pan(d, -d, 920, 674)
         cam.zoom(d / 1e4)
         view, proj = matrices(cam)
         assert np.isfinite(view).all() and np.isfinite(proj).all()
         assert -5 <= cam.pitch <= 89 and 60 <= cam.distance <= 5000
     cam.reset()
     assert np.allclose(cam.pivot, OrbitCamera().pivot)
+
+
+def test_a_narrow_window_keeps_the_batsman_in_view():
+    """A viewport narrower than the default (a window snapped to half a screen: 600 x 1050)
+    keeps the default's horizontal field of view: what lies at the sides of the default view
+    stays inside the narrow one, and a wide viewport keeps the vertical field of view."""
+    cam = OrbitCamera()
+    view = cam.view()
+    wide, narrow = VIEWPORT, (0, 0, 600, 1050)
+    edges = [picking.pixel_ray(x, 337.0, wide, view, cam.proj(920 / 674)) for x in (5.0, 915.0)]
+    for o, d in edges:
+        p = o + 560.0 * d                                  # at the pivot's depth
+        x, y = picking.project(p, narrow, view, cam.proj(600 / 1050))
+        assert 0.0 < x < 600.0 and 0.0 < y < 1050.0
+    assert cam.fovy_for(920 / 674) == cam.fovy and cam.fovy_for(2.5) == cam.fovy
+    assert cam.fovy < cam.fovy_for(600 / 1050) <= 150.0 and cam.fovy_for(1e-9) == 150.0
+
+
+def test_a_pan_moves_the_scene_with_the_pointer():
+    """A pan of (dx, dy) pixels moves a point at the pivot's depth by (dx, dy) on screen, in
+    the default viewport and in a narrow one."""
+    for vp in (VIEWPORT, (0, 0, 600, 1050)):
+        cam = OrbitCamera()
+        point = cam.pivot.copy()
+        before = picking.project(point, vp, cam.view(), cam.proj(vp[2] / vp[3]))
+        cam.pan(30.0, -20.0, vp[2], vp[3])
+        after = picking.project(point, vp, cam.view(), cam.proj(vp[2] / vp[3]))
+        assert np.allclose(after - before, (30.0, -20.0), atol=0.5), (vp, after - before)

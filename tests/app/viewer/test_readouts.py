@@ -140,8 +140,9 @@ def test_an_elevation_asked_with_the_direction_is_hit_by_the_face_tilt(state):
 
 def test_a_fielding_position_asks_for_its_direction(state):
     """"Cover drive, hit it to mid-off": a script's ``set direction "mid-off"`` (or the
-    wagon wheel's picker) asks for the position's azimuth and the ball goes there; a name
-    that is no position is refused with the names, before the run."""
+    wagon wheel's picker) asks for the position's azimuth and the ball goes there, with no
+    ``aim_direction`` needed first (as the CLI's --direction); ``aim_direction`` false drops
+    it; a name that is no position is refused with the names, before the run."""
     from app.errors import UserError
     from app.ui.wagonwheel import position_named
     from app.viewer.update import AIM_SETTLE_S, update
@@ -149,8 +150,8 @@ def test_a_fielding_position_asks_for_its_direction(state):
     index = [s.name for s in state.shots].index("cover_drive")
     settings = ViewerSettings(pinned_shot="cover_drive", target=default_target(state, index))
     assert position_named(settings) == "as the shot goes"
-    settings.set("aim_direction", True)
     settings.set("direction", "Mid Off")
+    assert settings.aim_direction and not settings.aim_elevation
     assert settings.direction == field.POSITIONS["mid-off"] and position_named(settings) == "mid-off"
     state.solved_key = None
     for _ in range(5):
@@ -160,5 +161,11 @@ def test_a_fielding_position_asks_for_its_direction(state):
     assert field.region(r.ball_azimuth_deg) == "mid-off"
     settings.set("direction", 23.0)
     assert position_named(settings) == "+23 deg"
+    settings.set("aim_direction", False)
+    assert position_named(settings) == "as the shot goes" and settings.aim_key() is None
+    settings.set("elevation", 10.0)                     # an elevation goes with a direction
+    assert settings.aim_elevation and settings.asked_elevation() is None
+    settings.set("direction", "cover")
+    assert settings.asked_elevation() == 10.0 and settings.aim_key() is not None
     with pytest.raises(UserError, match="mid-off"):
         settings.set("direction", "car park")
