@@ -71,8 +71,14 @@ def default_mesh_path() -> Path:
     return assets_dir() / "batsman.glb"
 
 
-class _Buffer:
-    """One binary buffer being filled: bufferViews and accessors appended as we go."""
+# numpy dtypes an accessor stores, and their glTF componentType
+_COMPONENTS = {np.dtype(np.float32): _FLOAT, np.dtype(np.uint8): 5121, np.dtype(np.uint16): 5123,
+               np.dtype(np.uint32): 5125}
+
+
+class GltfBuffer:
+    """One binary buffer being filled: bufferViews and accessors appended to ``gltf`` as we go
+    (this exporter's, and tools/make_batsman's for the bundled mesh)."""
 
     def __init__(self, gltf):
         self.gltf = gltf
@@ -87,12 +93,18 @@ class _Buffer:
         self.blob.extend(data)
         return len(self.gltf.bufferViews) - 1
 
-    def accessor(self, array: np.ndarray, kind: str, minmax: bool = False, target=None) -> int:
-        """A float32 accessor over ``array (N,)`` or ``(N, k)``; returns its index."""
+    def accessor(self, array: np.ndarray, kind: str, minmax: bool = False, target=None,
+                 normalized: bool = False) -> int:
+        """An accessor over ``array (N,)`` or ``(N, k)``: floats as float32, uint8, uint16 or
+        uint32 as they are; returns its index."""
         import pygltflib as g
-        a = np.ascontiguousarray(array, np.float32)
-        acc = g.Accessor(bufferView=self.view(a.tobytes(), target), componentType=_FLOAT, count=len(a), type=kind)
-        if minmax:  # required on animation inputs
+        a = np.ascontiguousarray(array)
+        a = a.astype(np.float32) if a.dtype.kind == "f" else a
+        if a.dtype not in _COMPONENTS:
+            raise ValueError(f"glTF accessor: no component type for {a.dtype}")
+        acc = g.Accessor(bufferView=self.view(a.tobytes(), target), componentType=_COMPONENTS[a.dtype],
+                         count=len(a), type=kind, normalized=normalized or None)   # None: the default, left out
+        if minmax:  # required on animation inputs and positions
             flat = a.reshape(len(a), -1)
             acc.min, acc.max = [float(x) for x in flat.min(0)], [float(x) for x in flat.max(0)]
         self.gltf.accessors.append(acc)
@@ -117,7 +129,7 @@ def check_clip(skeleton: Skeleton, clip: Clip) -> None:
 
 
 # ----------------------------------------------------------------- mesh copy
-def _copy_accessor(src, src_blob: bytes, index: int, out: _Buffer, memo: dict) -> int:
+def _copy_accessor(src, src_blob: bytes, index: int, out: GltfBuffer, memo: dict) -> int:
     """Copy accessor ``index`` of ``src`` (and its bufferView bytes, once) into ``out``."""
     if index in memo:
         return memo[index]
@@ -189,14 +201,14 @@ class _MeshSource:
         self.memo: dict = {}
         self.materials: dict = {}
 
-    def mesh(self, gltf, out: _Buffer, index: int, name: str) -> int:
+    def mesh(self, gltf, out: GltfBuffer, index: int, name: str) -> int:
         """Copy mesh ``index`` (positions to metres) into ``gltf``; its new index."""
         import pygltflib as g
         prims = [self._primitive(gltf, p, out) for p in self.src.meshes[index].primitives]
         gltf.meshes.append(g.Mesh(name=name, primitives=prims))
         return len(gltf.meshes) - 1
 
-    def _primitive(self, gltf, p, out: _Buffer):
+    def _primitive(self, gltf, p, out: GltfBuffer):
         """One primitive with its standard attributes, indices and material."""
         import pygltflib as g
         attrs = {}
@@ -217,7 +229,7 @@ class _MeshSource:
                            material=self.materials.get(p.material))
 
 
-def _add_body(gltf, out: _Buffer, skeleton: Skeleton, source: _MeshSource) -> int:
+def _add_body(gltf, out: GltfBuffer, skeleton: Skeleton, source: _MeshSource) -> int:
     """The skinned batsman (mesh, material, skin) into ``gltf``; returns its node index."""
     import pygltflib as g
     mesh_index, skin, names = _mesh_skin_names(source.src)
@@ -238,7 +250,7 @@ def _add_body(gltf, out: _Buffer, skeleton: Skeleton, source: _MeshSource) -> in
     return len(gltf.nodes) - 1
 
 
-def _add_ball(gltf, out: _Buffer, source: _MeshSource | None) -> int:
+def _add_ball(gltf, out: GltfBuffer, source: _MeshSource | None) -> int:
     """The ball node (with the ball mesh of the mesh file, if any); its index."""
     import pygltflib as g
     node = g.Node(name=BALL_NAME)
@@ -268,7 +280,7 @@ def _animated_translations(skeleton: Skeleton, clip: Clip) -> tuple[list[int], n
     return moving, t
 
 
-def _add_animation(gltf, out: _Buffer, skeleton: Skeleton, take: Take, ball_node: int | None) -> None:
+def _add_animation(gltf, out: GltfBuffer, skeleton: Skeleton, take: Take, ball_node: int | None) -> None:
     import pygltflib as g
     clip = take.clip
     times = out.accessor(np.arange(clip.num_frames) / clip.fps, "SCALAR", minmax=True)
@@ -335,7 +347,7 @@ def build_gltf(skeleton: Skeleton, takes: Clip | list[Take], mesh_path: str | Pa
     _check_takes(skeleton, takes)
     gltf = g.GLTF2(asset=g.Asset(version="2.0", generator="hitpoint engine/gltf_export.py"),
                    scene=0, nodes=_joint_nodes(skeleton))
-    out = _Buffer(gltf)
+    out = GltfBuffer(gltf)
     source = _MeshSource(Path(mesh_path) if mesh_path else default_mesh_path()) if with_mesh else None
     scene_nodes = [] if source is None else [_add_body(gltf, out, skeleton, source)]
     ball = None

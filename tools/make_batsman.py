@@ -24,8 +24,6 @@ file sees one batsman. (Exports, engine.gltf_export, are in metres with no scale
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -647,98 +645,75 @@ def decimated(part: Part, gloss: np.ndarray, triangles: int) -> tuple[Part, np.n
 
 # ----------------------------------------------------------------- glTF
 def write_glb(model: dict, path: Path) -> None:
+    """The model as ``path`` (.glb, atomically): the skinned batsman (and its shadow caster and
+    levels of detail) and the ball, the data in cm under one 0.01 scale."""
     import pygltflib as g
 
-    rig = model["rig"]
-    skel = rig.skeleton
-    blob = bytearray()
-    views, accessors = [], []
+    from engine.atomic import atomic_output
+    from engine.gltf_export import GltfBuffer
 
-    def add(array: np.ndarray, ctype: int, atype: str, target=None, normalized=False, minmax=False) -> int:
-        data = np.ascontiguousarray(array).tobytes()
-        while len(blob) % 4:
-            blob.append(0)
-        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data), target=target))
-        blob.extend(data)
-        acc = g.Accessor(bufferView=len(views) - 1, componentType=ctype, count=len(array), type=atype,
-                         normalized=normalized or None)
-        if minmax:
-            acc.min = [float(x) for x in array.min(0)]
-            acc.max = [float(x) for x in array.max(0)]
-        accessors.append(acc)
-        return len(accessors) - 1
+    skel = model["rig"].skeleton
+    gltf = g.GLTF2(asset=g.Asset(version="2.0", generator="hitpoint tools/make_batsman.py"), scene=0)
+    out = GltfBuffer(gltf)
 
     def prim(part: Part, gloss: np.ndarray, joints=None, weights=None) -> g.Primitive:
         col = np.concatenate([part.colors, np.ones((len(part.colors), 1))], 1)
         attrs = g.Attributes(
-            POSITION=add(part.vertices.astype(np.float32), g.FLOAT, g.VEC3, g.ARRAY_BUFFER, minmax=True),
-            NORMAL=add(part.normals.astype(np.float32), g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
-            COLOR_0=add(np.round(col * 255).astype(np.uint8), g.UNSIGNED_BYTE, g.VEC4, g.ARRAY_BUFFER, normalized=True),
+            POSITION=out.accessor(part.vertices, g.VEC3, target=g.ARRAY_BUFFER, minmax=True),
+            NORMAL=out.accessor(part.normals, g.VEC3, target=g.ARRAY_BUFFER),
+            COLOR_0=out.accessor(np.round(col * 255).astype(np.uint8), g.VEC4, target=g.ARRAY_BUFFER,
+                                 normalized=True),
         )
-        attrs._GLOSS = add(gloss.astype(np.float32), g.FLOAT, g.SCALAR, g.ARRAY_BUFFER)
+        attrs._GLOSS = out.accessor(gloss, g.SCALAR, target=g.ARRAY_BUFFER)
         if joints is not None:
-            attrs.JOINTS_0 = add(joints, g.UNSIGNED_BYTE, g.VEC4, g.ARRAY_BUFFER)
-            attrs.WEIGHTS_0 = add(weights, g.FLOAT, g.VEC4, g.ARRAY_BUFFER)
-        ind = add(part.faces.astype(np.uint32).reshape(-1), g.UNSIGNED_INT, g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
+            attrs.JOINTS_0 = out.accessor(joints.astype(np.uint8), g.VEC4, target=g.ARRAY_BUFFER)
+            attrs.WEIGHTS_0 = out.accessor(weights, g.VEC4, target=g.ARRAY_BUFFER)
+        ind = out.accessor(part.faces.astype(np.uint32).reshape(-1), g.SCALAR, target=g.ELEMENT_ARRAY_BUFFER)
         return g.Primitive(attributes=attrs, indices=ind, material=0)
 
-    body_prim = prim(model["body"], model["body_gloss"], model["joints"], model["weights"])
-    ball_prim = prim(model["ball"], model["ball_gloss"])
-    meshes = [g.Mesh(name="Batsman", primitives=[body_prim]), g.Mesh(name="Ball", primitives=[ball_prim])]
+    gltf.meshes = [g.Mesh(name="Batsman", primitives=[prim(model["body"], model["body_gloss"], model["joints"],
+                                                             model["weights"])]),
+                   g.Mesh(name="Ball", primitives=[prim(model["ball"], model["ball_gloss"])])]
     for key, name in (("shadow", "BatsmanShadow"), ("lod1", "BatsmanLod1"), ("lod2", "BatsmanLod2")):
         if key in model:
-            meshes.append(g.Mesh(name=name, primitives=[
+            gltf.meshes.append(g.Mesh(name=name, primitives=[
                 prim(model[key], model[f"{key}_gloss"], model[f"{key}_joints"], model[f"{key}_weights"])]))
     J = skel.num_joints
     ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
     ibm[:, :3, 3] = -model["bind"]
-    # glTF stores matrices column-major
-    ibm_acc = add(np.ascontiguousarray(ibm.transpose(0, 2, 1)).reshape(J, 16), g.FLOAT, g.MAT4)
+    ibm_acc = out.accessor(ibm.transpose(0, 2, 1).reshape(J, 16), g.MAT4)     # glTF: column-major
+    _glb_nodes(gltf, skel)
+    gltf.skins = [g.Skin(name="rig", joints=list(range(J)), inverseBindMatrices=ibm_acc, skeleton=len(gltf.nodes) - 1)]
+    gltf.materials = [g.Material(name="vertex_colour", doubleSided=True, pbrMetallicRoughness=g.PbrMetallicRoughness(
+        baseColorFactor=[1, 1, 1, 1], metallicFactor=0.0, roughnessFactor=0.7))]
+    gltf.buffers = [g.Buffer(byteLength=len(out.blob))]
+    gltf.set_binary_blob(bytes(out.blob))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(path) as tmp:
+        gltf.save_binary(str(tmp))
 
-    nodes = []
-    for i, name in enumerate(skel.names):
-        nodes.append(g.Node(name=name, translation=[float(x) for x in skel.offsets[i]],
-                            children=[int(c) for c in skel.children(i)] or None))
-    nodes.append(g.Node(name="Batsman_body", mesh=0, skin=0))
-    nodes.append(g.Node(name="Ball", mesh=1))
-    for mi in range(2, len(meshes)):
-        nodes.append(g.Node(name=meshes[mi].name, mesh=mi, skin=0))
+
+def _glb_nodes(gltf, skel) -> None:
+    """The joints (skeleton order), the meshes' nodes and the character's root (last) into
+    ``gltf.nodes``, and the two scenes."""
+    import pygltflib as g
+    J = skel.num_joints
+    gltf.nodes = [g.Node(name=name, translation=[float(x) for x in skel.offsets[i]],
+                         children=[int(c) for c in skel.children(i)] or None) for i, name in enumerate(skel.names)]
+    gltf.nodes.append(g.Node(name="Batsman_body", mesh=0, skin=0))
+    gltf.nodes.append(g.Node(name="Ball", mesh=1))
+    for mi in range(2, len(gltf.meshes)):
+        gltf.nodes.append(g.Node(name=gltf.meshes[mi].name, mesh=mi, skin=0))
     roots = [i for i in range(J) if skel.parents[i] < 0]
     # The character's root: the data stay in cm (the viewer's unit), the one scale
     # here makes glTF tools (metres) show him 1.8 m tall.
-    nodes.append(g.Node(name="Batsman", scale=[0.01] * 3, children=roots))
-    character = len(nodes) - 1
-    gltf = g.GLTF2(
-        asset=g.Asset(version="2.0", generator="hitpoint tools/make_batsman.py"),
-        scene=0,
-        # what a user opening the file sees: the batsman; the renderer's extra meshes
-        # (ball, shadow caster, levels of detail) in a second scene of their own
-        scenes=[g.Scene(name="Batsman", nodes=[character, J]),
-                g.Scene(name="Hitpoint renderer meshes (ball, shadow caster, levels of detail)",
-                        nodes=[character] + list(range(J + 1, len(nodes) - 1)))],
-        nodes=nodes,
-        meshes=meshes,
-        skins=[g.Skin(name="rig", joints=list(range(J)), inverseBindMatrices=ibm_acc, skeleton=character)],
-        materials=[g.Material(name="vertex_colour",
-                              pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=[1, 1, 1, 1],
-                                                                          metallicFactor=0.0,
-                                                                          roughnessFactor=0.7),
-                              doubleSided=True)],
-        accessors=accessors,
-        bufferViews=views,
-        buffers=[g.Buffer(byteLength=len(blob))],
-    )
-    gltf.set_binary_blob(bytes(blob))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".glb.tmp")
-    os.close(fd)
-    try:
-        gltf.save_binary(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    gltf.nodes.append(g.Node(name="Batsman", scale=[0.01] * 3, children=roots))
+    character = len(gltf.nodes) - 1
+    # what a user opening the file sees: the batsman; the renderer's extra meshes (ball, shadow
+    # caster, levels of detail) in a second scene of their own
+    gltf.scenes = [g.Scene(name="Batsman", nodes=[character, J]),
+                   g.Scene(name="Hitpoint renderer meshes (ball, shadow caster, levels of detail)",
+                           nodes=[character] + list(range(J + 1, character)))]
 
 
 def main() -> None:
