@@ -164,11 +164,18 @@ class Flight:
     elevation_deg: float
 
 
+def bat_velocities(global_positions, joint: int, fps: float) -> np.ndarray:
+    """Velocity (cm/s) of ``joint`` at every frame ``(F, 3)``: central differences, one-sided
+    at the ends; zero for a single frame."""
+    p = np.asarray(global_positions, float)[:, joint]
+    return np.gradient(p, axis=0) * fps if len(p) > 1 else np.zeros_like(p)
+
+
 def bat_velocity(global_positions, joint: int, frame: int, fps: float) -> np.ndarray:
-    """Velocity (cm/s) of ``joint`` at ``frame``: central difference (one-sided at the ends)."""
+    """Velocity (cm/s) of ``joint`` at ``frame`` (:func:`bat_velocities`)."""
     F = global_positions.shape[0]
-    a, b = max(frame - 1, 0), min(frame + 1, F - 1)
-    return (global_positions[b, joint] - global_positions[a, joint]) * fps / max(b - a, 1)
+    a, b = max(frame - 1, 0), min(frame + 2, F)
+    return bat_velocities(global_positions[a:b], joint, fps)[frame - a]
 
 
 def impact(normal, ball_start, hit_point, bat_v, bat_axis=None, speed: float = BALL_SPEED,

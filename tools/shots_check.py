@@ -146,7 +146,8 @@ FEET_CM = 200.0              # a defended ball first lands within this of the hi
 def bat_speed_mps(rig, global_positions: np.ndarray, fps: float) -> np.ndarray:
     """Horizontal speed (m/s) of the Bat joint per frame ``(F,)``, central differences
     (the speed Stretch et al. measured)."""
-    v = np.gradient(global_positions[:, rig.bat_joint], axis=0) * fps
+    from engine.ballistics import bat_velocities
+    v = bat_velocities(global_positions, rig.bat_joint, fps)
     return np.hypot(v[:, 0], v[:, 2]) / 100.0
 
 

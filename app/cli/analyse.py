@@ -251,7 +251,7 @@ def source_direction(rig, shot) -> dict:
     h, fps = shot.hit_frame, shot.clip.fps
     out = hit_summary(rig, shot, grot, gpos, choice.BALL_START, shot.hit_point)
     del out["face_angle_deg"]
-    v = np.array([ballistics.bat_velocity(gpos, rig.bat_joint, f, fps) for f in range(shot.num_frames)])
+    v = ballistics.bat_velocities(gpos, rig.bat_joint, fps)
     horiz = np.hypot(v[:, 0], v[:, 2])
     k = int(np.argmax(horiz[1:-1])) + 1                  # central differences only
     den = horiz[k - 1] - 2 * horiz[k] + horiz[k + 1]     # sub-frame peak: parabola through 3 samples

@@ -55,6 +55,22 @@ def test_contact_from_the_cosine():
 
 # ------------------------------------------------------------ the impact
 
+def test_bat_velocity_is_the_central_difference_at_every_frame():
+    """ballistics.bat_velocities: a joint moving at constant velocity reads it at every frame
+    (the ends one-sided), an accelerating one the central difference; bat_velocity agrees
+    frame by frame; a single frame reads zero."""
+    from engine import ballistics
+    t = np.arange(6)[:, None, None] / 30.0
+    steady = np.concatenate([np.zeros((6, 1, 3)), t * [100.0, -50.0, 20.0]], 1)      # (F, 2, 3) cm
+    assert np.allclose(ballistics.bat_velocities(steady, 1, 30.0), [100.0, -50.0, 20.0])
+    accel = np.concatenate([np.zeros((6, 1, 3)), t ** 2 * [300.0, 0.0, 0.0]], 1)
+    v = ballistics.bat_velocities(accel, 1, 30.0)
+    assert np.allclose(v[1:-1, 0], 600.0 * t[1:-1, 0, 0]) and v[0, 0] > 0.0      # 2 a t between the ends
+    for f in range(6):
+        assert np.allclose(ballistics.bat_velocity(accel, 1, f, 30.0), v[f])
+    assert np.allclose(ballistics.bat_velocities(accel[:1], 1, 30.0), 0.0)
+
+
 def test_a_face_pointing_to_the_off_side_sends_the_ball_to_point():
     """A still bat whose face points -X, the ball coming from the off side: it goes
     back to the off side, azimuth +90, level; contact face."""
