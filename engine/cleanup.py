@@ -13,9 +13,11 @@ Two independent fixes, both compiled (engine/cleanup_nb.py, one call per clip; a
   the torso Spine..Spine2 leans and the left arm gives while the bat holds),
   and where even that cannot reach, the bat is moved by what is still missing;
 * planted feet stay planted: where the source's foot is planted (slow and
-  low), the leg chain (hip, knee) is solved by CCD so the ankle reaches the
-  source's ankle position, and the foot is turned to its orientation, with a
-  short blend at the plant's ends so nothing pops.
+  low for at least 3 frames), the leg chain (hip, knee) is solved by CCD so the
+  ankle reaches the source's ankle position (or, where the new motion strides
+  elsewhere, holds where it lands), and the foot is turned to its orientation,
+  with a short blend at the plant's ends so nothing pops; where the new hips go
+  further from the plant than the leg reaches, the foot leaves it.
 
 Both keep locked DOFs and the rig's limits (measured as
 engine.ccd.limit_violation does), widened only to take in a pose the new
@@ -39,6 +41,7 @@ from .skeleton import Clip, Skeleton, carried_pose, clip_fk, local_translations,
 PLANT_SPEED = 15.0     # cm/s: slower than this counts as planted ...
 PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
 PLANT_BLEND = 4        # frames over which a plant fades in and out
+REACH = 0.995          # a plant further from the hip than this share of the leg is left
 
 
 @dataclass
@@ -167,7 +170,8 @@ def plant_targets(foot: np.ndarray, source_foot: np.ndarray, planted: np.ndarray
     Where the new motion plants the foot near the source's plant (the run's mean
     within PLANT_FOLLOW), the source's ankle positions; where it plants it
     elsewhere (an aborted shot never strides), the foot is held still at the
-    new motion's mean position for the run, at the source's height, so it
+    new motion's position where the run starts (it lands there: the hips
+    are then behind it, so the leg reaches it), at the source's height, so it
     neither slides nor gets dragged to a stride that no longer happens.
     The hold target also covers the blend frames either side of the run."""
     target = source_foot.copy()
@@ -177,7 +181,7 @@ def plant_targets(foot: np.ndarray, source_foot: np.ndarray, planted: np.ndarray
         here, there = foot[a:b].mean(axis=0), source_foot[a:b].mean(axis=0)
         if np.linalg.norm((here - there)[[0, 2]]) <= PLANT_FOLLOW:
             continue
-        hold = np.array([here[0], there[1], here[2]])
+        hold = np.array([foot[a, 0], there[1], foot[a, 2]])
         lo, hi = max(a - PLANT_BLEND, 0), min(b + PLANT_BLEND, F)
         target[lo:hi] = hold
     return target
@@ -191,15 +195,24 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     (0 where not planted) and the planted frames."""
     chain = rig.chains[f"{side}_leg"]
     ankle = chain.effector
-    src_planted = planted_frames(src_global_pos[:, ankle], fps)
+    # runs only: a foot slow and low for a frame or two is passing the ground, not planted
+    # (a one-frame "plant" at the cover drive's frame 34 pulled the synthesised back foot
+    # 9 cm toward where the source had it, over the blend's 9 frames)
+    src_planted = np.zeros(len(src_global_pos), bool)
+    for a, b in planted_runs(src_global_pos[:, ankle], fps):
+        src_planted[a:b] = True
     planted = src_planted[source_frames]
-    w = _plant_weight(planted)
     F = clip.num_frames
+    g_rot, g_pos = _fk(skeleton, clip)
+    t_pos = plant_targets(g_pos[:, ankle], src_global_pos[source_frames, ankle], planted)
+    # where the new motion takes the hip further from the plant than the leg reaches (an
+    # exaggerated drive's lunge), the foot leaves it, heel up, as a batsman's back foot does
+    leg_cm = np.linalg.norm(skeleton.offsets[chain.joints[1:]], axis=-1).sum()
+    planted = planted & (np.linalg.norm(t_pos - g_pos[:, chain.joints[0]], axis=-1) < REACH * leg_cm)
+    w = _plant_weight(planted)
     if not w.any():
         return np.zeros(F), planted
     sel = w > 0
-    g_rot, g_pos = _fk(skeleton, clip)
-    t_pos = plant_targets(g_pos[:, ankle], src_global_pos[source_frames, ankle], planted)
     t_rot = src_global_rot[source_frames, ankle]
     target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
     target_rot = quat.slerp(g_rot[:, ankle], t_rot, w)
