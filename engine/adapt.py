@@ -273,7 +273,7 @@ class Adapter:
             raise ValueError(f"start pose must be finite local rotations {self.src_local.shape}")
         return start, np.ascontiguousarray(np.radians(limit_euler(start, self.rig.limits)))
 
-    def _run(self, frames: np.ndarray, desired, settings: AdaptSettings, start=None):
+    def _run(self, frames: np.ndarray, desired, settings: AdaptSettings, start=None, turn=None):
         check_settings(settings)
         p = check_point(desired, "desired hit point")
         K, J = len(frames), self.parents.shape[0]
@@ -284,16 +284,21 @@ class Adapter:
         adapt_frames(frames, p, self._blend_for(float(settings.falloff)), self._shot_args, (start_local, start_euler),
                       *chains, (bool(settings.fix_right_hand), SOLVERS.index(settings.solver),
                                 float(settings.tolerance), int(settings.iterations), DAMPING, ORIENT_TOL),
-                      (settings.face == "keep", face_free, self.face_w, self.face_local, self.face_turn(p, settings)),
+                      (settings.face == "keep", face_free, self.face_w, self.face_local,
+                       self.face_turn(p, settings) if turn is None else np.asarray(turn, float)),
                       out)
         return out, p
 
-    def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None) -> Adaptation:
+    def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None,
+              turn=None) -> Adaptation:
         """The whole shot adapted so the bat joint is at ``desired_hit_point`` at the hit frame;
-        ``start``: the chains' start pose ``(F, J, 4)`` instead of the source's (learnt+ccd)."""
+        ``start``: the chains' start pose ``(F, J, 4)`` instead of the source's (learnt+ccd);
+        ``turn``: the kept face's rotation vector ``(3,)`` rad at the hit frame against the
+        shot's own, instead of the settings' (``face_turn``, ``face_yaw``, ``face_tilt``)."""
         settings = settings or AdaptSettings()
         frames = np.arange(self.num_frames, dtype=np.int64)
-        (loc, grot, gpos, blend, handles, err, gcm, gdeg), p = self._run(frames, desired_hit_point, settings, start)
+        (loc, grot, gpos, blend, handles, err, gcm, gdeg), p = self._run(frames, desired_hit_point, settings, start,
+                                                                         turn)
         h = self.hit_frame
         return Adaptation(self.trans[:, 0].copy(), loc, grot, gpos, blend, handles, p,
                           float(np.linalg.norm(gpos[h, self.bat] - p)), gcm, gdeg)

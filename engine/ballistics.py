@@ -90,7 +90,10 @@ def contact_normal(face_n, toward, kind: str, bat_axis=None) -> np.ndarray:
     return t / np.linalg.norm(t)
 
 
-def fly(position, velocity, duration: float = 3.0, dt: float = 1 / 120,
+FLY_DT = 1.0 / 120.0     # s between the samples of a flight (fly's default)
+
+
+def fly(position, velocity, duration: float = 3.0, dt: float = FLY_DT,
         e_ground: float = RESTITUTION_GROUND, friction: float = FRICTION_GROUND,
         radius: float = 3.6) -> np.ndarray:
     """Polyline ``(K,3)`` of a ball under gravity bouncing on the ground (y = radius),
@@ -162,6 +165,19 @@ class Flight:
     bat_velocity: np.ndarray  # (3,) cm/s, central difference of the bat joint
     azimuth_deg: float        # of ``velocity``, DESIGN.md's convention
     elevation_deg: float
+
+
+def ball_at_frame(ball_start, hit_point, hit_frame: int, fps: float, flight_path, flight_dt: float,
+                  frame: float) -> np.ndarray:
+    """The ball ``(3,)`` at a (fractional) frame of a shot: on its way in until the hit frame,
+    then along ``flight_path (K, 3)`` (samples ``flight_dt`` s apart; None or empty: it
+    keeps coming in)."""
+    if frame <= hit_frame or flight_path is None or len(flight_path) == 0:
+        return np.asarray(incoming_ball(ball_start, hit_point, hit_frame, min(frame, hit_frame), fps), float)
+    s = (frame - hit_frame) / fps / max(flight_dt, 1e-6)
+    k = int(np.clip(np.floor(s), 0, len(flight_path) - 1))
+    k1, a = min(k + 1, len(flight_path) - 1), float(np.clip(s - k, 0, 1))
+    return (1 - a) * flight_path[k] + a * flight_path[k1]
 
 
 def bat_velocities(global_positions, joint: int, fps: float) -> np.ndarray:

@@ -1,6 +1,6 @@
 """Clean-up of synthesised animations (dissertation 3.3).
 
-Two independent fixes, both compiled (engine/cleanup_nb.py, one call per clip; a whole
+Three fixes, the first two compiled (engine/cleanup_nb.py, one call per clip; a whole
 70-frame clean-up takes a few ms):
 
 * the right hand is put back on the bat handle: its position and orientation
@@ -19,7 +19,10 @@ Two independent fixes, both compiled (engine/cleanup_nb.py, one call per clip; a
   with a short blend at the plant's ends so nothing pops; where the new hips go
   further from the plant than the leg reaches, the foot leaves it.
 
-Both keep locked DOFs and the rig's limits (measured as
+* the face: at the take's hit frame the bat's face is turned back to the source's there
+  (:mod:`engine.cleanup_face`), after the other two.
+
+All keep locked DOFs and the rig's limits (measured as
 engine.ccd.limit_violation does), widened only to take in a pose the new
 motion already put outside them, so no joint ends further out than it was.
 Each returns the remaining error so the caller can show it.
@@ -34,6 +37,7 @@ from . import quat
 from .rig import Rig
 from .adapt import ORIENT_TOL
 from .ccd import chain_arrays, limit_euler
+from .cleanup_face import keep_source_face
 from .cleanup_nb import BAT_GIVE_ROUNDS, grip_frames, leg_frames
 from .fk_nb import frames_fk
 from .skeleton import Clip, Skeleton, carried_pose, clip_fk, local_translations, relative_pose
@@ -51,6 +55,7 @@ class CleanupResult:
     hand_error_deg: np.ndarray | None = None    # (F,)
     foot_error_cm: dict = field(default_factory=dict)   # side -> (F,) ankle error, 0 where not planted
     planted: dict = field(default_factory=dict)         # side -> (F,) bool
+    face_angle_deg: float | None = None                 # the face at the take's hit vs the source's, after
 
     def summary(self) -> dict:
         out = {}
@@ -60,6 +65,8 @@ class CleanupResult:
         for side, e in self.foot_error_cm.items():
             out[f"{side}_foot_error_cm_max"] = float(e.max()) if e.size else 0.0
             out[f"{side}_foot_planted_frames"] = int(self.planted[side].sum())
+        if self.face_angle_deg is not None:
+            out["face_angle_deg"] = self.face_angle_deg
         return out
 
 
@@ -71,11 +78,14 @@ def frame_map(frames: int, source_frames: int) -> np.ndarray:
 
 
 def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bool = True,
-            plant_feet: bool = True, source_frames: np.ndarray | None = None) -> CleanupResult:
+            plant_feet: bool = True, source_frames: np.ndarray | None = None,
+            source_hit_frame: int | None = None, hit_frame: int | None = None) -> CleanupResult:
     """Clean ``clip`` (e.g. synthesised from ``source``'s PC space).
 
     ``source_frames (F,)``: the source frame each frame corresponds to
-    (default: linear time stretch).
+    (default: linear time stretch). With ``source_hit_frame``, the face too: at
+    ``hit_frame`` (default: the frame that corresponds to the source's hit) the bat's
+    face is turned to the source's at its hit.
     """
     out = clip.copy()
     m = frame_map(clip.num_frames, source.num_frames) if source_frames is None else np.asarray(source_frames)
@@ -89,6 +99,10 @@ def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bo
             res.planted[side] = planted
     if fix_hand:
         res.hand_error_cm, res.hand_error_deg = reattach_right_hand(rig, skeleton, out, src_rot[m], src_pos[m])
+    if source_hit_frame is not None:
+        h = int(np.argmin(np.abs(m - source_hit_frame))) if hit_frame is None else int(hit_frame)
+        face = quat.rotate(src_rot[source_hit_frame, rig.bat_joint], np.asarray(rig.bat["face_normal"], float))
+        res.face_angle_deg = keep_source_face(rig, skeleton, out, face, h)
     return res
 
 

@@ -26,6 +26,7 @@ def register(cli: typer.Typer) -> None:
         out: Path = typer.Option(..., "--out", help="Output BVH (written atomically)."),
         fix_hand: bool = typer.Option(True, "--fix-hand/--no-fix-hand", help="Re-attach the right hand to the bat."),
         plant_feet: bool = typer.Option(True, "--plant-feet/--no-plant-feet", help="Keep the source's planted feet planted."),
+        keep_face: bool = typer.Option(True, "--keep-face/--free-face", help="Turn the bat's face at the hit back to the source's."),
         fps: float = typer.Option(None, "--fps", help="Frame rate when the path has timestamps (default: the shot's)."),
         library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
     ):
@@ -36,7 +37,7 @@ def register(cli: typer.Typer) -> None:
         about its centre by 1 +/- amount between backlift and follow-through;
         aborted leaves the path at `amount` of the way from backlift to hit (or
         at "abort_frame") and heads straight for the rest pose. Prints a JSON
-        summary (frames, clean-up errors).
+        summary (frames, clean-up errors, the face at the hit against the source's).
         """
         from engine import bvh, cleanup, synth  # numba (0.25 s): when the command runs
         from engine import pca as pcam
@@ -71,8 +72,9 @@ def register(cli: typer.Typer) -> None:
                    "variance_2pcs": round(float(space.cumulative[min(1, space.num_components - 1)]), 4)}
         if spec.preset:
             summary["amount"] = spec.amount if spec.amount is not None else synth.DEFAULT_AMOUNT[spec.preset]
-        if fix_hand or plant_feet:
-            res = cleanup.cleanup(rig, src.skeleton, anim, src.clip, fix_hand, plant_feet)
+        if fix_hand or plant_feet or keep_face:
+            res = cleanup.cleanup(rig, src.skeleton, anim, src.clip, fix_hand, plant_feet,
+                                  source_hit_frame=src.hit_frame if keep_face else None)
             anim = res.clip
             summary["cleanup"] = {k: round(v, 3) if isinstance(v, float) else v for k, v in res.summary().items()}
         synth.check_finite_clip(anim)       # ValueError: one line from cli_errors, nothing written

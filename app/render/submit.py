@@ -68,8 +68,8 @@ def build_scene_view(state: AppState, settings: ViewerSettings, camera: OrbitCam
         polylines.append((state.shot.fk[1][:, bat].astype(np.float32), SOURCE_BAT_PATH_RGBA, 1.5))
     if o.bat_path and state.adaptation is not None:
         polylines.append((state.adaptation.global_positions[:, bat].astype(np.float32), BAT_PATH_RGBA, 2.5))
-    if o.flight and state.flight is not None and len(state.flight) > 1:
-        polylines.append((state.flight.astype(np.float32), FLIGHT_RGBA, 2.0))
+    if o.flight and state.shown_flight is not None and len(state.shown_flight) > 1:
+        polylines.append((state.shown_flight.astype(np.float32), FLIGHT_RGBA, 2.0))
     view.crosses, view.points, view.polylines = crosses, points, polylines
     if o.ball and state.ball_position is not None:
         view.ball_position = np.asarray(state.ball_position, np.float32)

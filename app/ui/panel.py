@@ -269,13 +269,14 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
         if state.desired_hit_point is not None:
             d = state.desired_hit_point
             rows.append(("desired hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))
-        rows += _impact_rows(r)
+        if state.shown_impact is not None:
+            rows += _impact_rows(state.shown_impact)
         for label, value in rows:
             imgui.table_next_row()
             imgui.table_next_column()
             imgui.text_colored(DIM, label)
             imgui.table_next_column()
-            if label == "ball meets bat" and r.contact != "face":
+            if label == "ball meets bat" and state.shown_impact.contact != "face":
                 imgui.text_colored(ERROR_COLOR, value)     # the back or the edge of the bat: say so
             else:
                 imgui.text(value)

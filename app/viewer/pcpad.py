@@ -31,6 +31,7 @@ import numpy as np
 
 from app.viewer.capture import safe_stem, write_new
 from app.viewer.state import Pose
+from app.viewer.takeball import ball_in_take, take_hit_frame, take_impact
 from engine import bvh, cleanup, synth
 from engine import pca as pcam
 from engine.skeleton import pose_fk
@@ -61,6 +62,7 @@ class Take:
     anim_global: tuple | None = None
     path: np.ndarray | None = None        # (F, 2) the points resampled to the clip's frames
     note: str = ""
+    impact: object = None                 # app.takeball.TakeImpact: the ball it meets, made with the clip
 
     def same_recipe(self, other: "Take") -> bool:
         return (self.kind == other.kind and self.amount == other.amount and self.fix_hand == other.fix_hand
@@ -101,6 +103,8 @@ class PadState:
     fix_hand: bool = True
     plant_feet: bool = True
     pose: Pose | None = None              # what the viewport shows while live/playing
+    impact: object = None                 # the shown take's app.takeball.TakeImpact
+    ball: np.ndarray | None = None        # (3,) its ball at the frame shown
     info: str = ""                        # one line about the last animation
     pose_us: float = 0.0                  # last pose-from-scores + FK time
     takes: dict = field(default_factory=dict)     # shot name -> [Take], oldest first
@@ -137,6 +141,7 @@ def sync(state) -> PadState | None:
         # what plays belongs to the old shot; its takes stay in pad.takes for its return
         pad.marker, pad.live, pad.playing, pad.pose = None, False, False, None
         pad.path, pad.anim, pad.anim_global, pad.stroke, pad.info = None, None, None, [], ""
+        pad.impact = pad.ball = None
         pad.take = -1
     return pad
 
@@ -257,16 +262,19 @@ def synthesise_take(state, take: Take) -> None:
     fps = float(shot.clip.fps)
     frames = None if take.times is not None else shot.num_frames
     anim = synth.synthesise(pad.pca, take.points, frames=frames, times=take.times, fps=fps)
-    take.note = ""
-    if take.fix_hand or take.plant_feet:
-        res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, take.fix_hand, take.plant_feet)
-        anim = res.clip
-        s = res.summary()
-        if "hand_error_cm_max" in s:
-            take.note = f", hand error max {s['hand_error_cm_max']:.1f} cm"
+    take.path = synth.resample_path(take.points, frames, take.times, fps)
+    same_timeline = take.times is None and take.kind != DRAWN
+    hit = take_hit_frame(take.path, pad.guide, shot.hit_frame, same_timeline)
+    # the face at the take's hit is always the source's (engine.cleanup_face): a take meets
+    # the ball as the shot does
+    res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, take.fix_hand, take.plant_feet,
+                          source_hit_frame=shot.hit_frame, hit_frame=hit)
+    anim = res.clip
+    s = res.summary()
+    take.note = f", hand error max {s['hand_error_cm_max']:.1f} cm" if "hand_error_cm_max" in s else ""
     take.anim = anim
     take.anim_global = _fk_pose(rig, anim.root_positions, anim.local_rotations)
-    take.path = synth.resample_path(take.points, frames, take.times, fps)
+    take.impact = take_impact(rig, shot, *take.anim_global, hit, state.ball_start)
 
 
 def show_take(state, index: int) -> None:
@@ -281,6 +289,7 @@ def show_take(state, index: int) -> None:
         synthesise_take(state, take)
     pad.take = index
     pad.anim, pad.anim_global, pad.path, pad.path_kind = take.anim, take.anim_global, take.path, take.kind
+    pad.impact = take.impact
     pad.playing, pad.live, pad.play_time = True, False, 0.0
     pad.info = f"{PRESET_LABELS.get(take.kind, take.kind)}: {take.anim.num_frames} frames{take.note}"
     advance(pad, 0.0)
@@ -297,6 +306,7 @@ def delete_take(state, index: int) -> None:
     if index == pad.take:
         release(state)
         pad.take, pad.anim, pad.anim_global, pad.path, pad.info = -1, None, None, None, ""
+        pad.impact = pad.ball = None
     elif index < pad.take:
         pad.take -= 1
 
@@ -318,6 +328,7 @@ def advance(pad: PadState, dt: float) -> None:
     i = int(min(round(f), F - 1))
     g_rot, g_pos = pad.anim_global
     pad.pose = Pose(g_rot[i], g_pos[i])
+    pad.ball = None if pad.impact is None else ball_in_take(pad.impact, i)
     if pad.path is not None and i < len(pad.path):
         pad.marker = pad.path[i]
 
@@ -338,6 +349,15 @@ def active_pose(state) -> Pose | None:
         return None
     # live marker, or an animation playing or paused on a frame ("back to shot" clears it)
     return pad.pose if (pad.live or pad.playing or pad.anim is not None) else None
+
+
+def active_ball(state):
+    """With :func:`active_pose` shown: (the ball ``(3,)``, its flight ``(K, 3)``, the impact's
+    readouts) of the take playing, or Nones for the live marker (a pose, no time, no ball)."""
+    pad = state.pc_pad
+    if pad is None or pad.live or pad.impact is None or active_pose(state) is None:
+        return None, None, None
+    return pad.ball, pad.impact.flight.path, pad.impact.readouts
 
 
 def export_animation(state, path) -> str:

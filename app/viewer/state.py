@@ -108,6 +108,8 @@ class AppState:
     source_pose: Pose | None = None
     compare_pose: Pose | None = None                  # the compared solver's pose (drawn as the ghost)
     ball_position: np.ndarray | None = None
+    shown_flight: np.ndarray | None = None            # (K,3) the flight drawn: the adapted shot's or a take's
+    shown_impact: Readouts | None = None              # whose impact the panel reads: ``readouts`` or a take's
     # interaction
     viewport: tuple = (0, 0, 1, 1)                    # (x, y, w, h) window pixels, top-left origin
     camera_still_s: float = 1.0                       # how long the camera has held still

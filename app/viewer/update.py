@@ -24,7 +24,6 @@ from engine.userlib import load_shots
 from engine.skeleton import bind_positions
 
 
-FLIGHT_DT = 1.0 / 120.0   # s between samples of engine.ballistics.fly (its default step)
 AIM_SETTLE_S = 0.25       # the target holds still this long before the face is turned for a direction
 TRAIL_LENGTH = 90         # ball directions kept for the wagon wheel (the live Fig. 2.6)
 
@@ -103,6 +102,7 @@ def update(state: AppState, settings: ViewerSettings, dt: float, pad_requests=()
     t0 = time.perf_counter()
     pose_at(state, settings.frame)
     ball_at(state, settings.frame)
+    state.shown_flight, state.shown_impact = state.flight, state.readouts
     if pad_ready(state):
         pcpad.step(state, pad_requests, dt)
         pad_pose(state)
@@ -137,10 +137,12 @@ def pad_ready(state: AppState) -> bool:
 
 def pad_pose(state: AppState) -> None:
     """While the PC pad drives the pose (live marker or a synthesised take), the viewport
-    shows its pose instead of the shot."""
+    shows its pose instead of the shot, and the ball that pose meets: a take's (app.takeball),
+    none for the marker's still pose."""
     pose = pcpad.active_pose(state)
     if pose is not None and np.isfinite(pose.global_positions).all():
         state.pose, state.pose_source = pose, "pc pad"
+        state.ball_position, state.shown_flight, state.shown_impact = pcpad.active_ball(state)
 
 
 def choose(state: AppState, settings: ViewerSettings) -> tuple[int, np.ndarray]:
@@ -298,7 +300,7 @@ def ball_flight(state: AppState, index: int, adaptation, desired) -> tuple[np.nd
         src, _ = ballistics.shot_flight(rig, shot, grot, gpos, state.ball_start, shot.hit_point, duration=0.0)
         state.source_azimuths[index] = src.azimuth_deg
     r.source_azimuth_deg = state.source_azimuths[index]
-    return polyline, FLIGHT_DT
+    return polyline, ballistics.FLY_DT
 
 
 def time_based_blend(num_frames: int, hit_frame: int, importance: np.ndarray) -> np.ndarray:
@@ -353,13 +355,5 @@ def ball_at(state: AppState, frame: float) -> None:
     if shot is None or desired is None:
         state.ball_position = None
         return
-    if frame <= shot.hit_frame or state.flight is None or len(state.flight) == 0:
-        state.ball_position = np.asarray(
-            ballistics.incoming_ball(state.ball_start, desired, shot.hit_frame, min(frame, shot.hit_frame),
-                          shot.clip.fps), float)
-        return
-    # After impact: walk the flight polyline at its own sample spacing.
-    s = (frame - shot.hit_frame) / shot.clip.fps / max(state.flight_dt, 1e-6)
-    k = int(np.clip(np.floor(s), 0, len(state.flight) - 1))
-    k1, a = min(k + 1, len(state.flight) - 1), float(np.clip(s - k, 0, 1))
-    state.ball_position = (1 - a) * state.flight[k] + a * state.flight[k1]
+    state.ball_position = ballistics.ball_at_frame(state.ball_start, desired, shot.hit_frame, shot.clip.fps,
+                                                   state.flight, state.flight_dt, frame)

@@ -113,3 +113,33 @@ def test_widget_draws_headless_and_drags(state):
     finally:
         implot.destroy_context(pctx)
         imgui.destroy_context(ctx)
+
+
+def test_a_playing_take_shows_the_ball_its_own_bat_meets(state, rig):
+    """While a take plays, the viewport's ball, flight and impact readouts are the take's
+    (app.takeball): the ball reaches the take's bat at the take's hit frame and leaves along
+    its flight; the live marker's still pose shows no ball; back to the shot, the adapted
+    shot's come back."""
+    from app.viewer import update
+    pcpad.apply_preset(state, "exaggerated", 0.4)
+    pad = state.pc_pad
+    imp = pad.impact
+    assert imp is not None and imp.hit_frame == state.shot.hit_frame
+    g_rot, g_pos = pad.anim_global
+    assert np.allclose(imp.hit_point, g_pos[imp.hit_frame, rig.bat_joint])
+    assert imp.readouts.contact in ("face", "edge", "back") and np.isfinite(imp.readouts.ball_azimuth_deg)
+    pad.play_time = (imp.hit_frame - 0.2) / pad.anim.fps
+    pcpad.advance(pad, 0.0)
+    assert np.allclose(pad.ball, imp.hit_point, atol=1e-6)             # the ball at the bat at the hit
+    ball, flight, readouts = pcpad.active_ball(state)
+    assert ball is pad.ball and flight is imp.flight.path and readouts is imp.readouts
+    pcpad.advance(pad, 5.0 / pad.anim.fps)                            # five frames on: in flight
+    assert np.linalg.norm(pad.ball - imp.hit_point) > 1.0
+    state.readouts.contact = "adapted"
+    update.pad_pose(state)
+    assert state.pose_source == "pc pad" and state.shown_impact is imp.readouts
+    assert np.array_equal(state.ball_position, pad.ball) and state.shown_flight is imp.flight.path
+    pcpad.set_scores(state, [0.5, 0.5])                               # the live marker: a pose, no ball
+    assert pcpad.active_ball(state) == (None, None, None)
+    pcpad.release(state)
+    assert pcpad.active_pose(state) is None

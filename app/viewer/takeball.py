@@ -1,0 +1,51 @@
+"""The ball a synthesised take meets (the PC pad's takes, app.pcpad): bowled from the ball's
+start at the take's bat at the take's hit frame, it leaves off what the take's bat has there,
+face, edge or back, as the adapted shot's does (engine.ballistics). The viewport shows that
+ball, its flight and the impact's readouts while the take plays, not the adapted shot's."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.viewer.state import Readouts
+from engine import ballistics, face
+
+
+@dataclass(frozen=True)
+class TakeImpact:
+    hit_frame: int              # on the take's timeline
+    hit_point: np.ndarray       # (3,) cm: the take's Bat joint there
+    ball_start: np.ndarray      # (3,) cm
+    fps: float
+    flight: ballistics.Flight
+    readouts: Readouts          # contact, face_to_ball, face_angle_deg (vs the source's), azimuth, elevation
+
+
+def take_hit_frame(take_scores: np.ndarray, shot_scores: np.ndarray, hit_frame: int, same_timeline: bool) -> int:
+    """The take's hit frame: the shot's own where the take runs on its timeline (a preset, the
+    2-PC path), else where the take's scores ``(F, 2)`` pass nearest the shot's at its hit
+    (``shot_scores (F_shot, 2)``): a drawn path has its own timing."""
+    if same_timeline and hit_frame < len(take_scores):
+        return int(hit_frame)
+    return int(np.argmin(np.linalg.norm(take_scores - shot_scores[hit_frame], axis=-1)))
+
+
+def take_impact(rig, shot, global_rotations, global_positions, hit_frame: int, ball_start) -> TakeImpact:
+    """The impact of a take (its FK ``(F, J, 4)``, ``(F, J, 3)``) with a ball bowled at its bat."""
+    bat, normal = rig.bat_joint, rig.bat["face_normal"]
+    hit_point = np.asarray(global_positions[hit_frame, bat], float)
+    fps = float(shot.clip.fps)
+    fl = ballistics.flight(global_rotations, global_positions, bat, normal, hit_frame, fps, ball_start,
+                           hit_point, rig.bat.get("axis"))
+    angle = float(face.face_angle_deg(np.asarray(global_rotations)[hit_frame], shot.fk[0][shot.hit_frame], bat,
+                                      normal))
+    r = Readouts(contact=fl.contact, face_to_ball=float(fl.face_to_ball), face_angle_deg=angle,
+                 ball_azimuth_deg=fl.azimuth_deg, ball_elevation_deg=fl.elevation_deg)
+    return TakeImpact(int(hit_frame), hit_point, np.asarray(ball_start, float), fps, fl, r)
+
+
+def ball_in_take(impact: TakeImpact, frame: float) -> np.ndarray:
+    """The ball ``(3,)`` at a (fractional) frame of the take."""
+    return ballistics.ball_at_frame(impact.ball_start, impact.hit_point, impact.hit_frame, impact.fps,
+                                    impact.flight.path, ballistics.FLY_DT, frame)
