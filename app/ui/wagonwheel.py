@@ -1,9 +1,10 @@
 """The wagon wheel in the panel: where the ball goes, seen from above with the bowler at
 the top and the off side on the right (a right-hander) — the live Figure 2.6.
 
-Drawn: the current direction (green off the face, red off the edge or the back), the
-source shot's own direction (grey), the directions of the last solves as the target
-moved (dots, fading with age) and the direction asked for (yellow). A click or a drag
+Drawn: the current direction (green off the face, red off the edge or the back; a PC-pad
+take's while it plays), the source shot's own direction (grey), the directions of the
+last solves as the target moved (dots, fading with age) and the direction asked for
+(yellow). A click or a drag
 on the wheel, or a fielding position picked under it ("mid-off"), asks for that direction
 (``settings.aim_direction``/``direction``: the update turns the face once the target holds
 still); a right click, or "as the shot goes", drops the request.
@@ -63,7 +64,9 @@ def draw_wagon_wheel(settings, state) -> None:
     _ray(dl, centre, radius, r.source_azimuth_deg, SOURCE_RGBA, 1.5)
     if settings.aim_direction:
         _ray(dl, centre, radius, settings.direction, ASKED_RGBA, 2.0)
-    _ray(dl, centre, radius, r.ball_azimuth_deg, FACE_RGBA if r.contact == "face" else MISS_RGBA, 3.0)
+    now = state.shown_impact if state.pose_source == "pc pad" else r   # a take playing: its ball (none: the marker)
+    if now is not None:
+        _ray(dl, centre, radius, now.ball_azimuth_deg, FACE_RGBA if now.contact == "face" else MISS_RGBA, 3.0)
     dl.add_text(imgui.ImVec2(c.x - 12, origin.y + 2), _u32(SOURCE_RGBA), "bowler")
     dl.add_text(imgui.ImVec2(origin.x + size - 22, c.y - 7), _u32(SOURCE_RGBA), "off")
     dl.add_text(imgui.ImVec2(origin.x + 2, c.y - 7), _u32(SOURCE_RGBA), "leg")
