@@ -44,6 +44,7 @@ class Capture:
     shot: Shot
     hit: HitFrame
     appended: bool               # an implement joint was appended (dropped on writing)
+    first_frame: int = 0         # frames before it (a conversion's T-pose) hold the motion's first pose
 
     @property
     def lead_hand(self) -> int:
@@ -69,10 +70,15 @@ class Capture:
     def to_file(self, local_rotations: np.ndarray, root_positions: np.ndarray) -> tuple[Skeleton, Clip]:
         """An engine result (cm, rig joints) as a take on the file's own skeleton and units."""
         J = self.file_skeleton.num_joints
-        clip = Clip(root_positions / self.scale, np.ascontiguousarray(local_rotations[:, :J]), self.file_clip.fps,
+        clip = Clip(root_positions / self.scale, np.array(local_rotations[:, :J], copy=True), self.file_clip.fps,
                     None if self.file_clip.local_positions is None else self.file_clip.local_positions.copy())
         if clip.local_positions is not None:
             clip.local_positions[:, 0] = clip.root_positions
+        f, src = self.first_frame, self.file_clip
+        if f and clip.num_frames == src.num_frames:      # the file's own T-pose back in front
+            clip.local_rotations[:f], clip.root_positions[:f] = src.local_rotations[:f], src.root_positions[:f]
+            if clip.local_positions is not None:
+                clip.local_positions[:f] = src.local_positions[:f]
         return self.file_skeleton, clip
 
 
@@ -205,8 +211,12 @@ def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: i
     cm = float(scale) if scale is not None else (
         guess_scale(file_skel, roles) if prof.scale_cm == "auto" else float(prof.scale_cm))
     skel, clip = scaled(file_skel, file_clip, cm)
+    # a T-pose the conversion put in front (CMU's frame 0) is no pose of the motion: it would
+    # flash at each loop, pull a PC of its own and ask the clean-up for hands 130 cm apart
+    first = motion_start(clip.local_rotations)
+    _hold_first_pose(clip, first)
     grot, gpos = clip_fk(skel, clip)
-    hit = _hit_frame(prof, roles, clip, gpos, hit_frame)
+    hit = _hit_frame(prof, roles, clip, gpos, hit_frame, first)
     skel, effector, appended = _implement(prof, roles, skel, grot[hit.frame], gpos[hit.frame])
     if appended:
         clip.local_rotations = np.concatenate(
@@ -226,15 +236,25 @@ def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: i
     if "face_normal" not in rig.bat:
         rig.bat["face_normal"] = _leading_side(rig, clip, grot, gpos, hit.frame).tolist()
     shot = Shot(path.stem, path.name, hit.frame, f"{prof.name} capture", skel, clip, effector)
-    cap = Capture(path, prof, roles, cm, file_skel, file_clip, rig, shot, hit, appended)
+    cap = Capture(path, prof, roles, cm, file_skel, file_clip, rig, shot, hit, appended, first)
     shot.capture = cap
     return cap
 
 
-def _hit_frame(prof: Profile, roles: dict, clip: Clip, gpos: np.ndarray, hit_frame) -> HitFrame:
+def _hold_first_pose(clip: Clip, first: int) -> None:
+    """Frames before ``first`` take frame ``first``'s pose, in place (the file keeps its own:
+    :meth:`Capture.to_file` puts them back)."""
+    if first:
+        clip.local_rotations[:first] = clip.local_rotations[first]
+        clip.root_positions[:first] = clip.root_positions[first]
+        if clip.local_positions is not None:
+            clip.local_positions[:first] = clip.local_positions[first]
+
+
+def _hit_frame(prof: Profile, roles: dict, clip: Clip, gpos: np.ndarray, hit_frame, first: int) -> HitFrame:
     F = clip.num_frames
     if hit_frame == "auto":
-        return find_hit_frame(implement_points(prof, roles, gpos), clip.fps, motion_start(clip.local_rotations))
+        return find_hit_frame(implement_points(prof, roles, gpos), clip.fps, first)
     h = int(hit_frame)
     if not 0 <= h < F:
         raise ValueError(f"hit frame {h} outside the capture's frames 0..{F - 1}")

@@ -55,6 +55,30 @@ def test_cmu_golf_is_cmu_and_its_impact_is_found():
     assert 3.0 < cap.hit.peak_speed_ms < 6.0  # the hands' fastest, about 4 m/s (mocap README)
 
 
+def test_the_conversion_s_t_pose_holds_the_first_pose_and_goes_back_on_writing(tmp_path):
+    """CMU's added T-pose (frame 0) is no pose of the swing: in the engine it holds frame 1's
+    pose (no flash at each loop, no PC of its own, no hands 130 cm apart for the clean-up),
+    the file's numbering kept (the hit frame is the file's), and written back it is the
+    file's own T-pose again, every other frame as the engine had it."""
+    cap = load_capture(kit.GOLF)
+    clip = cap.shot.clip
+    assert np.array_equal(clip.local_rotations[0], clip.local_rotations[1])
+    assert np.array_equal(clip.root_positions[0], clip.root_positions[1])
+    assert clip.num_frames == cap.file_clip.num_frames == 494
+    g = cap.shot.fk[1]
+    hands = np.linalg.norm(g[:, cap.lead_hand] - g[:, cap.trail_hand], axis=-1)
+    assert hands[0] == hands[1] < 15.0 and hands.max() < 30.0     # the grip (13 cm; 23 in the finish)
+    _, out = cap.to_file(clip.local_rotations, clip.root_positions)
+    assert np.array_equal(out.local_rotations[0], cap.file_clip.local_rotations[0])
+    assert np.allclose(out.root_positions[0], cap.file_clip.root_positions[0])
+    assert np.allclose(out.local_rotations[1:], clip.local_rotations[1:, :cap.file_skeleton.num_joints])
+    path = tmp_path / "back.bvh"
+    cap.write(path, clip.local_rotations, clip.root_positions)
+    back_skel, back = bvh.read(path)
+    assert back.num_frames == 494
+    assert np.max(np.abs(back.local_rotations[0] - cap.file_clip.local_rotations[0])) < 1e-6
+
+
 def _file_hands(b, lead="LeftHand", trail="RightHand", unit=1.0):
     p = kit.fk(b) * unit
     i, j = b["names"].index(lead), b["names"].index(trail)
