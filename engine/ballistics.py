@@ -226,15 +226,17 @@ def flight(global_rotations, global_positions, bat_joint: int, face_normal_local
 
 
 def shot_flight(rig, shot, global_rotations, global_positions, ball_start, hit_point,
-                duration: float = 3.0) -> tuple[Flight, float]:
+                duration: float = 3.0, hit_frame: int | None = None) -> tuple[Flight, float]:
     """The ball after the hit of an adapted ``shot`` on ``rig`` (its bat's face normal and
     axis, the shot's hit frame and rate), and the angle (deg) of the bat face at the hit
-    frame against the source's: what the viewer, ``adapt``'s JSON and the direction
-    search all report."""
-    h, bat, normal = shot.hit_frame, rig.bat_joint, rig.bat["face_normal"]
+    frame against the source's at its own: what the viewer, ``adapt``'s JSON and the
+    direction search all report. ``hit_frame``: the motion's own (a synthesised take's),
+    when it is not the shot's."""
+    bat, normal = rig.bat_joint, rig.bat["face_normal"]
+    h = shot.hit_frame if hit_frame is None else int(hit_frame)
     fl = flight(global_rotations, global_positions, bat, normal, h, shot.clip.fps, ball_start, hit_point,
                 rig.bat.get("axis"), duration=duration)
-    angle = face.face_angle_deg(np.asarray(global_rotations)[h], shot.fk[0][h], bat, normal)
+    angle = face.face_angle_deg(np.asarray(global_rotations)[h], shot.fk[0][shot.hit_frame], bat, normal)
     return fl, float(angle)
 
 

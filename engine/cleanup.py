@@ -17,8 +17,7 @@ Three fixes, the first two compiled (engine/cleanup_nb.py, one call per clip; a 
   ankle reaches the source's ankle position (or, where the new motion strides
   elsewhere, holds where it lands), and the foot is turned to its orientation,
   with a short blend at the plant's ends so nothing pops; where the new hips go
-  further from the plant than the leg reaches, the foot leaves it.
-
+  further from the plant than the leg reaches, the foot leaves it;
 * the face: at the take's hit frame the bat's face is turned back to the source's there
   (:mod:`engine.cleanup_face`), after the other two.
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.viewer.state import Readouts
-from engine import ballistics, face
+from engine import ballistics
 
 
 @dataclass(frozen=True)
@@ -33,16 +33,12 @@ def take_hit_frame(take_scores: np.ndarray, shot_scores: np.ndarray, hit_frame: 
 
 def take_impact(rig, shot, global_rotations, global_positions, hit_frame: int, ball_start) -> TakeImpact:
     """The impact of a take (its FK ``(F, J, 4)``, ``(F, J, 3)``) with a ball bowled at its bat."""
-    bat, normal = rig.bat_joint, rig.bat["face_normal"]
-    hit_point = np.asarray(global_positions[hit_frame, bat], float)
-    fps = float(shot.clip.fps)
-    fl = ballistics.flight(global_rotations, global_positions, bat, normal, hit_frame, fps, ball_start,
-                           hit_point, rig.bat.get("axis"))
-    angle = float(face.face_angle_deg(np.asarray(global_rotations)[hit_frame], shot.fk[0][shot.hit_frame], bat,
-                                      normal))
+    hit_point = np.asarray(global_positions[hit_frame, rig.bat_joint], float)
+    fl, angle = ballistics.shot_flight(rig, shot, global_rotations, global_positions, ball_start, hit_point,
+                                       hit_frame=hit_frame)
     r = Readouts(contact=fl.contact, face_to_ball=float(fl.face_to_ball), face_angle_deg=angle,
                  ball_azimuth_deg=fl.azimuth_deg, ball_elevation_deg=fl.elevation_deg)
-    return TakeImpact(int(hit_frame), hit_point, np.asarray(ball_start, float), fps, fl, r)
+    return TakeImpact(int(hit_frame), hit_point, np.asarray(ball_start, float), float(shot.clip.fps), fl, r)
 
 
 def ball_in_take(impact: TakeImpact, frame: float) -> np.ndarray:

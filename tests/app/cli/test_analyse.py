@@ -78,6 +78,20 @@ def test_synth_writes_bvh_that_reads_back(rig, library, tmp_path, spec):
         assert info["frames"] == 50
 
 
+def test_synth_keeps_the_face_unless_asked_not_to(tmp_path):
+    """``hitpoint synth`` on a bundled shot turns the take's face at the hit back to the
+    source's and says how far it is left (the 2-PC cover drive met the ball with its edge,
+    88 deg off); ``--free-face`` leaves the face as the two PCs make it, and says nothing."""
+    p = tmp_path / "path.json"
+    p.write_text(json.dumps({"preset": "exaggerated", "amount": 0.4}))
+    code, stdout, err = run("synth", "--shot", "cover_drive", "--path", p, "--out", tmp_path / "k.bvh")
+    assert code == 0, err
+    assert json.loads(stdout)["cleanup"]["face_angle_deg"] < 5.0
+    code, stdout, err = run("synth", "--shot", "cover_drive", "--path", p, "--out", tmp_path / "f.bvh", "--free-face")
+    assert code == 0, err
+    assert "face_angle_deg" not in json.loads(stdout)["cleanup"]
+
+
 @pytest.mark.parametrize("content", ["[[0, 0], [1]]", "{", '{"preset": "wild"}', "[]", '"x"',
                                      '{"preset": "toned_down", "amount": 2}', "[[0, NaN]]"])
 def test_synth_bad_path_is_one_line_exit_2(library, tmp_path, content):
