@@ -227,9 +227,7 @@ class Adapter:
             return np.array([0.0, yaw, 0.0])
         tilt = quat.from_axis_angle(across / np.linalg.norm(across), math.radians(settings.face_tilt))
         q = quat.mul(tilt, quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), yaw))
-        q = q if q[0] >= 0 else -q
-        s = float(np.linalg.norm(q[1:]))
-        return np.zeros(3) if s < 1e-15 else q[1:] / s * 2.0 * math.atan2(s, q[0])
+        return quat.log(q)
 
     def source_face(self) -> np.ndarray:
         """The source's world face normal (3,) at the hit frame."""

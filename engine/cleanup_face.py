@@ -21,11 +21,9 @@ from .skeleton import Clip, Skeleton
 
 
 def turn_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The shortest rotation vector ``(3,)`` rad taking unit vector ``a`` to ``b`` (zero when
-    they are parallel or opposite: no axis is preferred then)."""
-    axis = np.cross(a, b)
-    s = float(np.linalg.norm(axis))
-    return np.zeros(3) if s < 1e-12 else axis / s * np.arctan2(s, float(np.dot(a, b)))
+    """The shortest rotation vector ``(3,)`` rad taking direction ``a`` to ``b``
+    (:func:`engine.quat.between` as the adapter's face turn wants it)."""
+    return quat.log(quat.between(a, b))
 
 
 def keep_source_face(rig: Rig, skeleton: Skeleton, clip: Clip, source_face: np.ndarray, hit_frame: int) -> float:

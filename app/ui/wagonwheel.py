@@ -64,7 +64,7 @@ def draw_wagon_wheel(settings, state) -> None:
     _ray(dl, centre, radius, r.source_azimuth_deg, SOURCE_RGBA, 1.5)
     if settings.aim_direction:
         _ray(dl, centre, radius, settings.direction, ASKED_RGBA, 2.0)
-    now = state.shown_impact if state.pose_source == "pc pad" else r   # a take playing: its ball (none: the marker)
+    now = state.shown_impact            # the adapted shot's, a playing take's, none for the pad's marker
     if now is not None:
         _ray(dl, centre, radius, now.ball_azimuth_deg, FACE_RGBA if now.contact == "face" else MISS_RGBA, 3.0)
     dl.add_text(imgui.ImVec2(c.x - 12, origin.y + 2), _u32(SOURCE_RGBA), "bowler")
