@@ -159,7 +159,7 @@ class Flight:
     """The ball after the hit."""
     path: np.ndarray          # (K,3) polyline, every 1/120 s
     velocity: np.ndarray      # (3,) cm/s just after the impact
-    contact: str              # "face" | "edge" | "back": what the ball met
+    contact: str              # "face" | "edge" | "back": what the ball met; "none": the ball was left
     face_to_ball: float       # cosine between the face normal and the direction toward the ball
     face_normal: np.ndarray   # (3,) world face normal at the hit frame
     bat_velocity: np.ndarray  # (3,) cm/s, central difference of the bat joint
@@ -238,6 +238,16 @@ def shot_flight(rig, shot, global_rotations, global_positions, ball_start, hit_p
                 rig.bat.get("axis"), duration=duration)
     angle = face.face_angle_deg(np.asarray(global_rotations)[h], shot.fk[0][shot.hit_frame], bat, normal)
     return fl, float(angle)
+
+
+def passing_flight(ball_start, hit_point, speed: float = BALL_SPEED, duration: float = 3.0) -> Flight:
+    """The ball a batsman leaves (an aborted take, engine.synth.leaves_ball): on through
+    ``hit_point`` untouched, under gravity; contact "none", no face."""
+    s = _finite(ball_start, "ball start")
+    p = _finite(hit_point, "hit point")
+    v = -speed * face.toward_ball(s, p)
+    return Flight(fly(p, v, duration), v, "none", float("nan"), np.zeros(3), np.zeros(3),
+                  float(face.azimuth_deg(v)), float(face.elevation_deg(v)))
 
 
 def ball_after_impact(global_rotations, global_positions, bat_joint: int, hand_joint: int,

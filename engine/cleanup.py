@@ -18,8 +18,8 @@ Three fixes, the first two compiled (engine/cleanup_nb.py, one call per clip; a 
   elsewhere, holds where it lands), and the foot is turned to its orientation,
   with a short blend at the plant's ends so nothing pops; where the new hips go
   further from the plant than the leg reaches, the foot leaves it;
-* the face: at the take's hit frame the bat's face is turned back to the source's there
-  (:mod:`engine.cleanup_face`), after the other two.
+* the hit: at the take's hit frame the bat is brought to the source's hit point and its face
+  turned to the source's there (:mod:`engine.cleanup_hit`), after the other two.
 
 All keep locked DOFs and the rig's limits (measured as
 engine.ccd.limit_violation does), widened only to take in a pose the new
@@ -36,7 +36,7 @@ from . import quat
 from .rig import Rig
 from .adapt import ORIENT_TOL
 from .ccd import chain_arrays, limit_euler
-from .cleanup_face import keep_source_face
+from .cleanup_hit import meet_ball
 from .cleanup_nb import BAT_GIVE_ROUNDS, grip_frames, leg_frames
 from .fk_nb import frames_fk
 from .skeleton import Clip, Skeleton, carried_pose, clip_fk, local_translations, relative_pose
@@ -55,6 +55,9 @@ class CleanupResult:
     foot_error_cm: dict = field(default_factory=dict)   # side -> (F,) ankle error, 0 where not planted
     planted: dict = field(default_factory=dict)         # side -> (F,) bool
     face_angle_deg: float | None = None                 # the face at the take's hit vs the source's, after
+    hit_frame: int | None = None                        # the take's hit frame, where it meets the ball
+    bat_error_cm: float | None = None                   # the bat there vs the source's hit point, after
+    bat_moved_cm: float | None = None                   # how far the bat was brought there
 
     def summary(self) -> dict:
         out = {}
@@ -66,6 +69,10 @@ class CleanupResult:
             out[f"{side}_foot_planted_frames"] = int(self.planted[side].sum())
         if self.face_angle_deg is not None:
             out["face_angle_deg"] = self.face_angle_deg
+            out["hit_frame"] = self.hit_frame
+        if self.bat_error_cm is not None:
+            out["bat_error_cm"] = self.bat_error_cm
+            out["bat_moved_cm"] = self.bat_moved_cm
         return out
 
 
@@ -78,13 +85,15 @@ def frame_map(frames: int, source_frames: int) -> np.ndarray:
 
 def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bool = True,
             plant_feet: bool = True, source_frames: np.ndarray | None = None,
-            source_hit_frame: int | None = None, hit_frame: int | None = None) -> CleanupResult:
+            source_hit_frame: int | None = None, hit_frame: int | None = None,
+            meet_hit_point: bool = True) -> CleanupResult:
     """Clean ``clip`` (e.g. synthesised from ``source``'s PC space).
 
     ``source_frames (F,)``: the source frame each frame corresponds to
-    (default: linear time stretch). With ``source_hit_frame``, the face too: at
+    (default: linear time stretch). With ``source_hit_frame``, the hit too: at
     ``hit_frame`` (default: the frame that corresponds to the source's hit) the bat's
-    face is turned to the source's at its hit.
+    face is turned to the source's at its hit and, with ``meet_hit_point``, the bat
+    brought to the source's hit point (else it stays where the clip has it).
     """
     out = clip.copy()
     m = frame_map(clip.num_frames, source.num_frames) if source_frames is None else np.asarray(source_frames)
@@ -101,7 +110,11 @@ def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bo
     if source_hit_frame is not None:
         h = int(np.argmin(np.abs(m - source_hit_frame))) if hit_frame is None else int(hit_frame)
         face = quat.rotate(src_rot[source_hit_frame, rig.bat_joint], np.asarray(rig.bat["face_normal"], float))
-        res.face_angle_deg = keep_source_face(rig, skeleton, out, face, h)
+        point = src_pos[source_hit_frame, rig.bat_joint] if meet_hit_point else None
+        res.hit_frame = h
+        res.face_angle_deg, error, moved = meet_ball(rig, skeleton, out, face, h, point)
+        if meet_hit_point:
+            res.bat_error_cm, res.bat_moved_cm = error, moved
     return res
 
 

@@ -230,13 +230,39 @@ def preset_path(path: np.ndarray, preset: str, amount: float | None = None,
     p = np.asarray(path, float)
     F = len(p)
     if preset == "aborted":
-        if abort_frame is None:
-            a, h = (sections.backlift, sections.hit_frame) if sections else (0, F - 1)
-            abort_frame = int(round(a + amount * max(h - a, 0)))
-        if not 0 <= abort_frame < F:
-            raise ValueError(f"abort frame {abort_frame} outside 0..{F - 1}")
-        return aborted_path(p, abort_frame)
+        return aborted_path(p, abort_at(F, amount, sections, abort_frame))
     return scaled_path(p, preset_factor(preset, amount), scale_envelope(F, sections))
+
+
+def abort_at(frames: int, amount: float, sections: Sections | None = None, abort_frame: int | None = None) -> int:
+    """The frame an aborted take of ``frames`` frames leaves the shot's path: ``abort_frame``, or
+    ``amount`` of the way from the backlift to the hit; ValueError outside the take."""
+    if abort_frame is None:
+        a, h = (sections.backlift, sections.hit_frame) if sections else (0, frames - 1)
+        abort_frame = int(round(a + amount * max(h - a, 0)))
+    if not 0 <= abort_frame < frames:
+        raise ValueError(f"abort frame {abort_frame} outside 0..{frames - 1}")
+    return int(abort_frame)
+
+
+def leaves_ball(preset: str | None, frames: int, sections: Sections, amount: float | None = None,
+                abort_frame: int | None = None) -> bool:
+    """Whether a take leaves the ball instead of meeting it: an aborted shot that leaves the
+    path before the hit (dissertation 3.2.3: "the bat is lifted away from its previous
+    trajectory") plays no ball; every other take meets it."""
+    if preset != "aborted":
+        return False
+    amount = check_preset(preset, amount, abort_frame)
+    return abort_at(frames, amount, sections, abort_frame) < sections.hit_frame
+
+
+def take_hit_frame(take_scores: np.ndarray, shot_scores: np.ndarray, hit_frame: int, same_timeline: bool) -> int:
+    """A take's hit frame: the shot's own where the take runs on its timeline (a preset, the
+    2-PC path), else where the take's scores ``(F, 2)`` pass nearest the shot's at its hit
+    (``shot_scores (F_shot, 2)``): a drawn path has its own timing."""
+    if same_timeline and hit_frame < len(take_scores):
+        return int(hit_frame)
+    return int(np.argmin(np.linalg.norm(take_scores - shot_scores[hit_frame], axis=-1)))
 
 
 def check_preset(preset, amount=None, abort_frame=None) -> float:

@@ -27,6 +27,7 @@ def register(cli: typer.Typer) -> None:
         fix_hand: bool = typer.Option(True, "--fix-hand/--no-fix-hand", help="Re-attach the right hand to the bat."),
         plant_feet: bool = typer.Option(True, "--plant-feet/--no-plant-feet", help="Keep the source's planted feet planted."),
         keep_face: bool = typer.Option(True, "--keep-face/--free-face", help="Turn the bat's face at the hit back to the source's."),
+        meet: bool = typer.Option(True, "--meet/--no-meet", help="With the face kept: bring the bat to the shot's hit point at the take's hit frame."),
         fps: float = typer.Option(None, "--fps", help="Frame rate when the path has timestamps (default: the shot's)."),
         library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
     ):
@@ -36,8 +37,12 @@ def register(cli: typer.Typer) -> None:
         Presets (Figure 3.7): exaggerated / toned_down scale the path's radius
         about its centre by 1 +/- amount between backlift and follow-through;
         aborted leaves the path at `amount` of the way from backlift to hit (or
-        at "abort_frame") and heads straight for the rest pose. Prints a JSON
-        summary (frames, clean-up errors, the face at the hit against the source's).
+        at "abort_frame") and heads straight for the rest pose. The take meets the
+        ball where the shot does, with the shot's face, at its hit frame (the
+        shot's for a preset, else where the path passes nearest the shot's hit
+        scores); an aborted take that leaves the path before the hit leaves the
+        ball. Prints a JSON summary (frames, clean-up errors, the take's hit frame,
+        the face there against the source's, how far the bat was brought).
         """
         from engine import bvh, cleanup, synth  # numba (0.25 s): when the command runs
         from engine import pca as pcam
@@ -72,9 +77,15 @@ def register(cli: typer.Typer) -> None:
                    "variance_2pcs": round(float(space.cumulative[min(1, space.num_components - 1)]), 4)}
         if spec.preset:
             summary["amount"] = spec.amount if spec.amount is not None else synth.DEFAULT_AMOUNT[spec.preset]
-        if fix_hand or plant_feet or keep_face:
+        per_frame = synth.resample_path(points, anim.num_frames if spec.times is None else None, spec.times, rate)
+        hit = synth.take_hit_frame(per_frame, synth.source_path(space), src.hit_frame, spec.preset is not None)
+        leaves = synth.leaves_ball(spec.preset, anim.num_frames, sections, spec.amount, spec.abort_frame)
+        if leaves:
+            summary["leaves_ball"] = True
+        if fix_hand or plant_feet or (keep_face and not leaves):
             res = cleanup.cleanup(rig, src.skeleton, anim, src.clip, fix_hand, plant_feet,
-                                  source_hit_frame=src.hit_frame if keep_face else None)
+                                  source_hit_frame=src.hit_frame if keep_face and not leaves else None,
+                                  hit_frame=hit, meet_hit_point=meet)
             anim = res.clip
             summary["cleanup"] = {k: round(v, 3) if isinstance(v, float) else v for k, v in res.summary().items()}
         synth.check_finite_clip(anim)       # ValueError: one line from cli_errors, nothing written

@@ -276,7 +276,7 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
             imgui.table_next_column()
             imgui.text_colored(DIM, label)
             imgui.table_next_column()
-            if label == "ball meets bat" and state.shown_impact.contact != "face":
+            if label == "ball meets bat" and state.shown_impact.contact in ("edge", "back"):
                 imgui.text_colored(ERROR_COLOR, value)     # the back or the edge of the bat: say so
             else:
                 imgui.text(value)
@@ -289,6 +289,9 @@ def _impact_rows(r) -> list[tuple[str, str]]:
     the face turned from the source's, where the ball goes (DESIGN.md's azimuth)."""
     if not r.contact:
         return []
+    if r.contact == "none":          # an aborted take: the batsman leaves the ball
+        return [("ball meets bat", "none: the shot is left"),
+                ("ball goes to", f"{r.ball_azimuth_deg:+.0f} deg {field.region(r.ball_azimuth_deg)}")]
     return [("ball meets bat", f"{r.contact} (cos {r.face_to_ball:+.2f})"),
             ("face vs source", f"{r.face_angle_deg:.1f} deg"),
             ("ball goes to", f"{r.ball_azimuth_deg:+.0f} deg {field.region(r.ball_azimuth_deg)}"),

@@ -65,7 +65,7 @@ def draw_wagon_wheel(settings, state) -> None:
     if settings.aim_direction:
         _ray(dl, centre, radius, settings.direction, ASKED_RGBA, 2.0)
     now = state.shown_impact            # the adapted shot's, a playing take's, none for the pad's marker
-    if now is not None:
+    if now is not None and now.contact != "none":      # a left ball goes nowhere the batsman sent it
         _ray(dl, centre, radius, now.ball_azimuth_deg, FACE_RGBA if now.contact == "face" else MISS_RGBA, 3.0)
     dl.add_text(imgui.ImVec2(c.x - 12, origin.y + 2), _u32(SOURCE_RGBA), "bowler")
     dl.add_text(imgui.ImVec2(origin.x + size - 22, c.y - 7), _u32(SOURCE_RGBA), "off")

@@ -31,7 +31,7 @@ import numpy as np
 
 from app.viewer.capture import safe_stem, write_new
 from app.viewer.state import Pose
-from app.viewer.takeball import ball_in_take, take_hit_frame, take_impact
+from app.viewer.takeball import ball_in_take, take_impact
 from engine import bvh, cleanup, synth
 from engine import pca as pcam
 from engine.skeleton import pose_fk
@@ -264,17 +264,23 @@ def synthesise_take(state, take: Take) -> None:
     anim = synth.synthesise(pad.pca, take.points, frames=frames, times=take.times, fps=fps)
     take.path = synth.resample_path(take.points, frames, take.times, fps)
     same_timeline = take.times is None and take.kind != DRAWN
-    hit = take_hit_frame(take.path, pad.guide, shot.hit_frame, same_timeline)
-    # the face at the take's hit is always the source's (engine.cleanup_face): a take meets
-    # the ball as the shot does
+    hit = synth.take_hit_frame(take.path, pad.guide, shot.hit_frame, same_timeline)
+    leaves = synth.leaves_ball(take.kind if take.kind in synth.PRESETS else None, anim.num_frames,
+                               pad.sections, take.amount)
+    # a take meets the ball as the shot does, where the shot does, with its face
+    # (engine.cleanup_hit); an aborted take leaves it
     res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, take.fix_hand, take.plant_feet,
-                          source_hit_frame=shot.hit_frame, hit_frame=hit)
+                          source_hit_frame=None if leaves else shot.hit_frame, hit_frame=hit)
     anim = res.clip
     s = res.summary()
     take.note = f", hand error max {s['hand_error_cm_max']:.1f} cm" if "hand_error_cm_max" in s else ""
+    if leaves:
+        take.note += ", leaves the ball"
+    elif "bat_moved_cm" in s:
+        take.note += f", bat brought {s['bat_moved_cm']:.0f} cm to the hit point"
     take.anim = anim
     take.anim_global = _fk_pose(rig, anim.root_positions, anim.local_rotations)
-    take.impact = take_impact(rig, shot, *take.anim_global, hit, state.ball_start)
+    take.impact = take_impact(rig, shot, *take.anim_global, hit, state.ball_start, leaves)
 
 
 def show_take(state, index: int) -> None:

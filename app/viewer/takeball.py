@@ -1,6 +1,8 @@
 """The ball a synthesised take meets (the PC pad's takes, app.pcpad): bowled from the ball's
-start at the take's bat at the take's hit frame, it leaves off what the take's bat has there,
-face, edge or back, as the adapted shot's does (engine.ballistics). The viewport shows that
+start at the take's bat at the take's hit frame (the clean-up brought the bat to the shot's hit
+point there, engine.cleanup_hit), it leaves off what the take's bat has there, face, edge or
+back, as the adapted shot's does (engine.ballistics). An aborted take that leaves the ball
+(engine.synth.leaves_ball) lets it pass the shot's hit point untouched. The viewport shows that
 ball, its flight and the impact's readouts while the take plays, not the adapted shot's."""
 from __future__ import annotations
 
@@ -22,20 +24,17 @@ class TakeImpact:
     readouts: Readouts          # contact, face_to_ball, face_angle_deg (vs the source's), azimuth, elevation
 
 
-def take_hit_frame(take_scores: np.ndarray, shot_scores: np.ndarray, hit_frame: int, same_timeline: bool) -> int:
-    """The take's hit frame: the shot's own where the take runs on its timeline (a preset, the
-    2-PC path), else where the take's scores ``(F, 2)`` pass nearest the shot's at its hit
-    (``shot_scores (F_shot, 2)``): a drawn path has its own timing."""
-    if same_timeline and hit_frame < len(take_scores):
-        return int(hit_frame)
-    return int(np.argmin(np.linalg.norm(take_scores - shot_scores[hit_frame], axis=-1)))
-
-
-def take_impact(rig, shot, global_rotations, global_positions, hit_frame: int, ball_start) -> TakeImpact:
-    """The impact of a take (its FK ``(F, J, 4)``, ``(F, J, 3)``) with a ball bowled at its bat."""
-    hit_point = np.asarray(global_positions[hit_frame, rig.bat_joint], float)
-    fl, angle = ballistics.shot_flight(rig, shot, global_rotations, global_positions, ball_start, hit_point,
-                                       hit_frame=hit_frame)
+def take_impact(rig, shot, global_rotations, global_positions, hit_frame: int, ball_start,
+                leaves: bool = False) -> TakeImpact:
+    """The impact of a take (its FK ``(F, J, 4)``, ``(F, J, 3)``) with a ball bowled at its bat;
+    ``leaves``: the take leaves the ball, bowled at the shot's hit point (contact "none")."""
+    if leaves:
+        hit_point = np.asarray(shot.hit_point, float)
+        fl, angle = ballistics.passing_flight(ball_start, hit_point), float("nan")
+    else:
+        hit_point = np.asarray(global_positions[hit_frame, rig.bat_joint], float)
+        fl, angle = ballistics.shot_flight(rig, shot, global_rotations, global_positions, ball_start, hit_point,
+                                           hit_frame=hit_frame)
     r = Readouts(contact=fl.contact, face_to_ball=float(fl.face_to_ball), face_angle_deg=angle,
                  ball_azimuth_deg=fl.azimuth_deg, ball_elevation_deg=fl.elevation_deg)
     return TakeImpact(int(hit_frame), hit_point, np.asarray(ball_start, float), float(shot.clip.fps), fl, r)

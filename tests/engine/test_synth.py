@@ -278,13 +278,13 @@ def test_planted_feet_stay_planted_in_every_preset(rig, library, name):
 
 
 @pytest.mark.parametrize("name", _shot_names())
-def test_a_take_meets_the_ball_with_the_face_and_sends_it_the_shot_s_way(rig, library, name):
-    """Every preset of every bundled shot (and its 2-PC path), cleaned with the face kept
-    (engine.cleanup_face): a ball bowled at the take's bat at its hit frame meets the face
-    (not the edge or the back), within 25 deg of the source's face, and goes to the shot's
-    region (tools.shots_check.REGIONS, widened 30 deg: an exaggerated on drive goes squarer,
-    -76). Measured 2026-12-04 before the face was kept: 5 of 36 met the edge or the back, the
-    face up to 106 deg from the source's, the square cut's ball to the leg side (-37)."""
+def test_a_take_meets_the_ball_where_the_shot_does_with_the_face_and_sends_it_the_shot_s_way(rig, library, name):
+    """Every preset of every bundled shot (and its 2-PC path), cleaned (engine.cleanup_hit): at
+    the take's hit frame its bat is at the shot's hit point, a ball bowled there meets the face
+    (not the edge or the back) within 5 deg of the source's face and goes to the shot's region
+    (tools.shots_check.REGIONS). An aborted take leaves the ball. Measured 2026-12-04 before:
+    the 2-PC cover drive's bat 94 cm from the hit point at the hit (over the batsman's head),
+    5 of 36 takes on the edge or the back, the face up to 106 deg from the source's."""
     from engine import ballistics
     from engine.choice import BALL_START
     from tools.shots_check import REGIONS
@@ -293,25 +293,30 @@ def test_a_take_meets_the_ball_with_the_face_and_sends_it_the_shot_s_way(rig, li
     sections = synth.shot_sections(shot.fk[1][:, rig.bat_joint], shot.hit_frame)
     base = synth.source_path(space)
     lo, hi = REGIONS[name]
-    for preset, amount in [("source", None), ("exaggerated", 0.4), ("toned_down", 0.4), ("aborted", 0.5)]:
+    h, bat = shot.hit_frame, rig.bat_joint
+    for preset, amount in [("source", None), ("exaggerated", 0.4), ("toned_down", 0.4), ("exaggerated", 1.0)]:
         path = base if amount is None else synth.preset_path(base, preset, amount, sections)
+        assert not synth.leaves_ball(None if amount is None else preset, shot.num_frames, sections, amount)
         anim = synth.synthesise(space, path, frames=shot.num_frames)
-        res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, source_hit_frame=shot.hit_frame)
+        res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, source_hit_frame=h)
         g_rot, g_pos = clip_fk(rig.skeleton, res.clip)
-        h = shot.hit_frame
-        fl = ballistics.flight(g_rot, g_pos, rig.bat_joint, rig.bat["face_normal"], h, shot.clip.fps, BALL_START,
-                               g_pos[h, rig.bat_joint], rig.bat.get("axis"))
+        fl = ballistics.flight(g_rot, g_pos, bat, rig.bat["face_normal"], h, shot.clip.fps, BALL_START,
+                               g_pos[h, bat], rig.bat.get("axis"))
         case = f"{name} {preset} {amount}: {fl.contact} {fl.face_to_ball:+.2f} {fl.azimuth_deg:+.0f}"
-        assert fl.contact == "face" and res.face_angle_deg <= 25.0, case
-        assert lo - 30.0 <= fl.azimuth_deg <= hi + 30.0, case
+        assert np.linalg.norm(g_pos[h, bat] - shot.hit_point) < 0.01 and res.bat_error_cm < 0.01, case
+        assert fl.contact == "face" and res.face_angle_deg <= 5.0, case
+        assert lo <= fl.azimuth_deg <= hi, case
         assert res.hand_error_cm.max() < 0.5, case
+    assert synth.leaves_ball("aborted", shot.num_frames, sections, 0.5)
+    assert not synth.leaves_ball("aborted", shot.num_frames, sections, abort_frame=h)
 
 
-def test_keeping_the_face_turns_it_to_the_source_s_and_leaves_the_bat_where_it_was(rig, library):
-    """engine.cleanup_face.keep_source_face on the cover drive's 2-PC take: the face at the hit
-    comes to within 15 deg of the source's (it was 88 deg off: the edge), the bat joint does
-    not move at the hit, and frames far from the hit are untouched."""
-    from engine.cleanup_face import keep_source_face, turn_between
+def test_meet_ball_brings_the_bat_to_the_point_with_the_source_s_face_and_leaves_the_ends_alone(rig, library):
+    """engine.cleanup_hit.meet_ball on the cover drive's 2-PC take: without a point the bat joint
+    stays where it was and the face turns to within 15 deg of the source's (it was 88 deg off: the
+    edge); with the shot's hit point the bat gets there (it was 94 cm off) with the face kept; the
+    first frame is untouched either way."""
+    from engine.cleanup_hit import meet_ball, turn_between
     shot = library["cover_drive"]
     space = pcam.fit_clip(rig, shot.clip, "body")
     anim = synth.synthesise(space, synth.source_path(space), frames=shot.num_frames)
@@ -319,13 +324,17 @@ def test_keeping_the_face_turns_it_to_the_source_s_and_leaves_the_bat_where_it_w
     normal = np.asarray(rig.bat["face_normal"], float)
     src_face = quat.rotate(shot.fk[0][h, bat], normal)
     before_rot, before_pos = clip_fk(rig.skeleton, anim)
-    take = anim.copy()
-    left = keep_source_face(rig, rig.skeleton, take, src_face, h)
-    after_rot, after_pos = clip_fk(rig.skeleton, take)
     was = np.degrees(np.arccos(np.clip(quat.rotate(before_rot[h, bat], normal) @ src_face, -1, 1)))
-    assert was > 60.0 and left < 15.0
-    assert np.linalg.norm(after_pos[h, bat] - before_pos[h, bat]) < 0.01
-    assert np.array_equal(take.local_rotations[0], anim.local_rotations[0])
+    assert was > 60.0
+    for point in (None, shot.hit_point):
+        take = anim.copy()
+        left, error, moved = meet_ball(rig, rig.skeleton, take, src_face, h, point)
+        after_rot, after_pos = clip_fk(rig.skeleton, take)
+        goal = before_pos[h, bat] if point is None else point
+        assert left < 15.0 and error < 0.01 and np.linalg.norm(after_pos[h, bat] - goal) < 0.01
+        assert moved == pytest.approx(np.linalg.norm(goal - before_pos[h, bat]))
+        assert np.array_equal(take.local_rotations[0], anim.local_rotations[0])
+    assert moved > 60.0
     assert np.allclose(turn_between(np.array([1.0, 0, 0]), np.array([0, 1.0, 0])), [0, 0, np.pi / 2])
     assert np.allclose(turn_between(np.array([1.0, 0, 0]), np.array([1.0, 0, 0])), 0.0)
 

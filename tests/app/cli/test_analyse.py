@@ -7,7 +7,8 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from engine import bvh
-from engine.library import conform_to_rig
+from engine.library import conform_to_rig, find_shot
+from engine.skeleton import clip_fk
 from tests.motion_kit import smooth_random_clip
 
 runner = CliRunner()
@@ -78,18 +79,36 @@ def test_synth_writes_bvh_that_reads_back(rig, library, tmp_path, spec):
         assert info["frames"] == 50
 
 
-def test_synth_keeps_the_face_unless_asked_not_to(tmp_path):
-    """``hitpoint synth`` on a bundled shot turns the take's face at the hit back to the
-    source's and says how far it is left (the 2-PC cover drive met the ball with its edge,
-    88 deg off); ``--free-face`` leaves the face as the two PCs make it, and says nothing."""
+def test_synth_meets_the_ball_with_the_face_unless_asked_not_to(rig, tmp_path):
+    """``hitpoint synth`` on a bundled shot brings the take's bat to the shot's hit point at the
+    take's hit frame with the source's face there, and says so (the exaggerated 2-PC cover drive's
+    bat was 113 cm off, over the batsman's head, and met the ball with its edge); the BVH read back
+    has the bat there. ``--no-meet`` keeps the face only, ``--free-face`` neither; an aborted take
+    that leaves the path before the hit leaves the ball."""
+    from engine.userlib import load_shots
+    shot = find_shot(load_shots(None)[1], "cover_drive")
     p = tmp_path / "path.json"
     p.write_text(json.dumps({"preset": "exaggerated", "amount": 0.4}))
     code, stdout, err = run("synth", "--shot", "cover_drive", "--path", p, "--out", tmp_path / "k.bvh")
     assert code == 0, err
-    assert json.loads(stdout)["cleanup"]["face_angle_deg"] < 5.0
+    c = json.loads(stdout)["cleanup"]
+    assert c["face_angle_deg"] < 5.0 and c["bat_error_cm"] < 0.01 and c["bat_moved_cm"] > 50.0
+    assert c["hit_frame"] == shot.hit_frame
+    skel, clip = conform_to_rig(rig, *bvh.read(tmp_path / "k.bvh"), "k")
+    bat = clip_fk(skel, clip)[1][shot.hit_frame, rig.bat_joint]
+    assert np.linalg.norm(bat - shot.hit_point) < 0.05         # BVH text rounds the angles
+    code, stdout, err = run("synth", "--shot", "cover_drive", "--path", p, "--out", tmp_path / "n.bvh", "--no-meet")
+    assert code == 0, err
+    c = json.loads(stdout)["cleanup"]
+    assert c["face_angle_deg"] < 5.0 and "bat_error_cm" not in c
     code, stdout, err = run("synth", "--shot", "cover_drive", "--path", p, "--out", tmp_path / "f.bvh", "--free-face")
     assert code == 0, err
     assert "face_angle_deg" not in json.loads(stdout)["cleanup"]
+    p.write_text(json.dumps({"preset": "aborted", "amount": 0.5}))
+    code, stdout, err = run("synth", "--shot", "cover_drive", "--path", p, "--out", tmp_path / "a.bvh")
+    assert code == 0, err
+    info = json.loads(stdout)
+    assert info["leaves_ball"] is True and "face_angle_deg" not in info["cleanup"]
 
 
 @pytest.mark.parametrize("content", ["[[0, 0], [1]]", "{", '{"preset": "wild"}', "[]", '"x"',
