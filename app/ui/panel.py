@@ -13,6 +13,7 @@ from app.viewer.settings import (COMPARE_CHOICES, FACES, FALLOFF_BAND, FALLOFF_R
                                  RENDER_SCALE_RANGE, SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TWISTS, ViewerSettings)
 from app.ui.wagonwheel import draw_wagon_wheel
 from app.ui.padwidget import draw_pc_pad
+from app.viewer import pcpad
 from app.viewer.requests import Requests
 from app.viewer.state import AppState
 from engine import field
@@ -260,7 +261,7 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
                 ("whole-shot solve", f"{t.get('solve', r.solve_ms):.2f} ms"),
                 ("render", f"{t.get('render', r.render_ms):.2f} ms"),
                 ("frame", f"{t.get('frame', r.frame_ms):.2f} ms  ({t.get('fps', r.fps):.0f} fps)"),
-                ("frame shown", f"{settings.frame:.2f} / {state.num_frames - 1}"),
+                _frame_shown_row(settings, state),
                 ("viewport shows", VIEWPORT_SHOWS.get(state.pose_source, state.pose_source))]
         c = r.compare
         if c:
@@ -282,6 +283,14 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
                 imgui.text(value)
         imgui.end_table()
     draw_wagon_wheel(settings, state)
+
+
+def _frame_shown_row(settings: ViewerSettings, state: AppState) -> tuple[str, str]:
+    """The frame in the viewport: a PC-pad take's while one is shown, else the shot's."""
+    take = pcpad.take_timeline(state)
+    if take is not None:
+        return ("frame shown", f"take {take.frame:.2f} / {take.frames - 1}")
+    return ("frame shown", f"{settings.frame:.2f} / {state.num_frames - 1}")
 
 
 def _impact_rows(r) -> list[tuple[str, str]]:

@@ -172,7 +172,7 @@ class App:
         io.delta_time = max(float(dt), 1e-4)
         imgui.new_frame()
         draw_panel(self.settings, self.state, rects["panel"], self.requests)
-        draw_timeline(self.settings, self.state, rects["timeline"])
+        draw_timeline(self.settings, self.state, rects["timeline"], self.requests.pad)
         imgui.render()
 
     def _render(self, rects: dict) -> tuple[float, float]:

@@ -331,7 +331,12 @@ def advance(pad: PadState, dt: float) -> None:
             f = pad.play_time * pad.anim.fps
         else:
             f, pad.playing = F - 1, False
-    i = int(min(round(f), F - 1))
+    _show_frame(pad, f)
+
+
+def _show_frame(pad: PadState, f: float) -> None:
+    """The take's pose, ball and marker at (fractional) frame ``f``."""
+    i = int(min(round(f), pad.anim.num_frames - 1))
     g_rot, g_pos = pad.anim_global
     pad.pose = Pose(g_rot[i], g_pos[i])
     pad.ball = None if pad.impact is None else ball_in_take(pad.impact, i)
@@ -430,6 +435,33 @@ def _play(state, pad, r):
         play_source_path(state)
 
 
+def _seek(state, pad, r):
+    """The timeline dragged while a take is shown: that frame of the take, paused."""
+    if pad.anim is not None:
+        pad.playing = False
+        pad.play_time = min(float(r.value), pad.anim.num_frames - 1) / pad.anim.fps
+        _show_frame(pad, pad.play_time * pad.anim.fps)
+
+
+@dataclass(frozen=True)
+class TakeTimeline:
+    frames: int
+    hit_frame: int | None         # None: the take leaves the ball
+    frame: float
+    playing: bool
+
+
+def take_timeline(state) -> TakeTimeline | None:
+    """What the timeline shows while a take is in the viewport (else None: the adapted shot's)."""
+    pad = state.pc_pad
+    if pad is None or pad.live or pad.anim is None or active_pose(state) is None:
+        return None
+    imp = pad.impact
+    hit = None if imp is None or imp.readouts.contact == "none" else imp.hit_frame
+    frame = min(pad.play_time * pad.anim.fps, pad.anim.num_frames - 1)
+    return TakeTimeline(pad.anim.num_frames, hit, frame, pad.playing)
+
+
 def _export(state, pad, r):
     """The take shown as BVH in a new file of the working directory (never over an earlier one)."""
     out = write_new(".", f"hitpoint_synth_{safe_stem(state.shot.name)}_", ".bvh",
@@ -443,11 +475,13 @@ def _option(name: str):
     return set_option
 
 
-# action -> (carry it out, what its value must be: None, "scores", "index", a tuple of choices, bool, float)
+# action -> (carry it out, what its value must be: None, "scores", "index", "frame", a tuple of choices, bool,
+# float)
 PAD_ACTIONS = {
     "marker": (_marker, "scores"), "stroke_start": (_stroke_start, None), "stroke_end": (_stroke_end, None),
     "preset": (_preset, tuple(PRESET_LABELS)), "remake_preset": (_remake_preset, None),
     "take": (_take, "index"), "forget": (_forget, None), "back": (_back, None), "play": (_play, None),
+    "seek": (_seek, "frame"),
     "export": (_export, None), "mode": (_option("mode"), PAD_MODES), "amount": (_option("amount"), float),
     "fix_hand": (_option("fix_hand"), bool), "plant_feet": (_option("plant_feet"), bool),
     "loop": (_option("loop"), bool),
@@ -463,6 +497,9 @@ def check_request(action, value=None, final: bool = False) -> PadRequest:
     if kind == "scores":
         value = np.asarray(value, float).reshape(-1)[:2]
         ok = value.size == 2 and bool(np.isfinite(value).all())
+    elif kind == "frame":
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 <= value <= synth.MAX_SYNTH_FRAMES
+        value = float(value) if ok else value
     elif kind == "index":
         ok = isinstance(value, int) and not isinstance(value, bool) and 0 <= value < MAX_TAKES_PER_SHOT
     elif kind is float:

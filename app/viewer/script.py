@@ -19,7 +19,7 @@ frames per second) and a ``"type"``:
   frames}`` (scores on the PC pad; ``pcpad_draw``, same fields, draws a path that
   becomes a take), ``pcpad {action, value?}`` (anything the pad's widget does:
   ``app.pcpad.PAD_ACTIONS``, e.g. ``mode draw``, ``preset aborted``, ``amount 0.7``,
-  ``remake_preset``, ``take 0``, ``forget``, ``play``, ``back``, ``export``,
+  ``remake_preset``, ``take 0``, ``forget``, ``play``, ``seek 30`` (a frame of the take shown), ``back``, ``export``,
   ``fix_hand false``), ``screenshot {path}``, ``export {dir, formats?}`` (a new folder; formats from
   ``png mp4 bvh glb gltf``, default all but ``gltf``), ``reload`` (the panel's "Reload shot library").
 

@@ -177,6 +177,38 @@ def test_scrubbing_changes_the_frame_shown(app):
     assert changed(first.astype(int), app.screenshot().astype(int)).sum() > 200
 
 
+def test_the_timeline_follows_a_playing_take_and_scrubs_it(app):
+    """While a PC-pad take is shown the timeline is the take's: its handle follows the take's
+    frame, a click on the track shows that frame of the take (paused) and leaves the adapted
+    shot's frame alone; back to the shot, the track is the shot's again."""
+    from app.ui.timeline import track_span, track_x
+    from app.viewer import pcpad
+    from app.viewer.loop import layout
+    app.requests.pad.append(pcpad.check_request("preset", "exaggerated"))
+    run(app, 3)
+    take = pcpad.take_timeline(app.state)
+    assert take is not None and take.playing and take.frame > 0
+    assert take.hit_frame == app.state.pc_pad.impact.hit_frame
+    shot_frame = app.settings.frame
+    rect = layout(SIZE)["timeline"]
+    x0, x1 = track_span(rect)
+    x, y = track_x(take.hit_frame, x0, x1, take.frames), rect[1] + rect[3] / 2
+    app.interaction.mouse_move(x, y)
+    run(app, 1)
+    app.interaction.mouse_button(0, True)
+    run(app, 1)
+    app.interaction.mouse_button(0, False)
+    run(app, 1)
+    take = pcpad.take_timeline(app.state)
+    assert not take.playing and take.frame == pytest.approx(take.hit_frame)
+    pad = app.state.pc_pad
+    assert np.allclose(app.state.pose.global_positions, pad.anim_global[1][take.hit_frame])
+    assert app.settings.frame == shot_frame
+    app.requests.pad.append(pcpad.check_request("back"))
+    run(app, 1)
+    assert pcpad.take_timeline(app.state) is None
+
+
 def test_keys_drive_playback(app):
     from app.viewer.interaction import KEY_NAMES
     it, s = app.interaction, app.settings
