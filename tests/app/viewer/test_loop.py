@@ -154,24 +154,27 @@ def test_drag_starts_only_on_the_target_and_shows_a_hand(app):
     run(app, 1)
 
 
-def test_scrubbing_changes_the_frame_shown(app):
+def click_timeline(app, frame: int, frames: int) -> None:
+    """Click the timeline's track at ``frame`` of a track of ``frames`` frames."""
     from app.ui.timeline import track_span, track_x
     from app.viewer.loop import layout
-    app.scrub(0)
-    run(app, 2)
-    first = app.screenshot().copy()
-    pose0 = app.state.pose.global_positions.copy()
-    # click on the timeline track at the hit frame
     rect = layout(SIZE)["timeline"]
     x0, x1 = track_span(rect)
-    hit = app.state.shot.hit_frame
-    x, y = track_x(hit, x0, x1, app.state.num_frames), rect[1] + rect[3] / 2
-    app.interaction.mouse_move(x, y)
+    app.interaction.mouse_move(track_x(frame, x0, x1, frames), rect[1] + rect[3] / 2)
     run(app, 1)
     app.interaction.mouse_button(0, True)
     run(app, 1)
     app.interaction.mouse_button(0, False)
     run(app, 1)
+
+
+def test_scrubbing_changes_the_frame_shown(app):
+    app.scrub(0)
+    run(app, 2)
+    first = app.screenshot().copy()
+    pose0 = app.state.pose.global_positions.copy()
+    hit = app.state.shot.hit_frame
+    click_timeline(app, hit, app.state.num_frames)
     assert app.settings.frame == hit
     assert not np.allclose(app.state.pose.global_positions, pose0)
     assert changed(first.astype(int), app.screenshot().astype(int)).sum() > 200
@@ -181,24 +184,14 @@ def test_the_timeline_follows_a_playing_take_and_scrubs_it(app):
     """While a PC-pad take is shown the timeline is the take's: its handle follows the take's
     frame, a click on the track shows that frame of the take (paused) and leaves the adapted
     shot's frame alone; back to the shot, the track is the shot's again."""
-    from app.ui.timeline import track_span, track_x
     from app.viewer import pcpad
-    from app.viewer.loop import layout
     app.requests.pad.append(pcpad.check_request("preset", "exaggerated"))
     run(app, 3)
     take = pcpad.take_timeline(app.state)
     assert take is not None and take.playing and take.frame > 0
     assert take.hit_frame == app.state.pc_pad.impact.hit_frame
     shot_frame = app.settings.frame
-    rect = layout(SIZE)["timeline"]
-    x0, x1 = track_span(rect)
-    x, y = track_x(take.hit_frame, x0, x1, take.frames), rect[1] + rect[3] / 2
-    app.interaction.mouse_move(x, y)
-    run(app, 1)
-    app.interaction.mouse_button(0, True)
-    run(app, 1)
-    app.interaction.mouse_button(0, False)
-    run(app, 1)
+    click_timeline(app, take.hit_frame, take.frames)
     take = pcpad.take_timeline(app.state)
     assert not take.playing and take.frame == pytest.approx(take.hit_frame)
     pad = app.state.pc_pad
