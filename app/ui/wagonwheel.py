@@ -56,7 +56,8 @@ def draw_wagon_wheel(settings, state) -> None:
     c = imgui.ImVec2(*centre)
     dl.add_circle_filled(c, radius, _u32(FIELD_RGBA), 48)
     dl.add_rect_filled(imgui.ImVec2(c.x - 3, c.y - radius * 0.45), imgui.ImVec2(c.x + 3, c.y), _u32(PITCH_RGBA))
-    trail = [az for _, az in state.azimuth_trail]
+    # the trail is where the adapted shot's ball went as the target moved: not a take's
+    trail = [az for _, az in state.azimuth_trail] if state.shown_impact is r else []
     for i, az in enumerate(trail):
         if math.isfinite(az):
             dl.add_circle_filled(imgui.ImVec2(*point_at(centre, radius * 0.8, az)), 2.5,

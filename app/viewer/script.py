@@ -14,7 +14,7 @@ frames per second) and a ``"type"``:
   [x,y] | "target", radius, turns}, frames}``: keep dragging the target along a
   path, one mouse move per frame (a circle around "target" passes through it)
 - ``set {key, value}`` (e.g. ``falloff``, ``solver``, ``overlays.flight``),
-  ``scrub {frame}``, ``key {key}`` (``space``, ``left``, ``right``, ``h``,
+  ``scrub {to}`` (the frame shown), ``key {key}`` (``space``, ``left``, ``right``, ``h``,
   ``s``, ``[``, ``]``, ``f12``, ``r``), ``pcpad_drag {from: [s1,s2], to: [s1,s2],
   frames}`` (scores on the PC pad; ``pcpad_draw``, same fields, draws a path that
   becomes a take), ``pcpad {action, value?}`` (anything the pad's widget does:
