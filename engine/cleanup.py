@@ -40,6 +40,7 @@ from .cleanup_hit import meet_ball
 from .cleanup_nb import BAT_GIVE_ROUNDS, grip_frames, leg_frames
 from .fk_nb import frames_fk
 from .skeleton import Clip, Skeleton, carried_pose, clip_fk, local_translations, relative_pose
+from .synth import frame_map
 
 PLANT_SPEED = 15.0     # cm/s: slower than this counts as planted ...
 PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
@@ -74,13 +75,6 @@ class CleanupResult:
             out["bat_error_cm"] = self.bat_error_cm
             out["bat_moved_cm"] = self.bat_moved_cm
         return out
-
-
-def frame_map(frames: int, source_frames: int) -> np.ndarray:
-    """(frames,) source frame for each frame, by stretching time linearly."""
-    if frames == 1:
-        return np.zeros(1, dtype=np.int64)
-    return np.rint(np.arange(frames) * (source_frames - 1) / (frames - 1)).astype(np.int64)
 
 
 def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bool = True,

@@ -28,10 +28,12 @@ def register(cli: typer.Typer) -> None:
         plant_feet: bool = typer.Option(True, "--plant-feet/--no-plant-feet", help="Keep the source's planted feet planted."),
         keep_face: bool = typer.Option(True, "--keep-face/--free-face", help="Turn the bat's face at the hit back to the source's."),
         meet: bool = typer.Option(True, "--meet/--no-meet", help="With the face kept: bring the bat to the shot's hit point at the take's hit frame."),
+        detail: bool = typer.Option(True, "--detail/--two-pcs", help="The PCs after the first two from the source shot (at the same time for a preset, along the path for a drawn one); --two-pcs: the first two alone."),
         fps: float = typer.Option(None, "--fps", help="Frame rate when the path has timestamps (default: the shot's)."),
         library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
     ):
-        """Synthesise an animation from a path through the shot's first two PCs.
+        """Synthesise an animation from a path through the shot's first two PCs (the
+        rest from the source shot; --two-pcs: the first two alone).
 
         Without timestamps the path is stretched over the source's length.
         Presets (Figure 3.7): exaggerated / toned_down scale the path's radius
@@ -68,16 +70,18 @@ def register(cli: typer.Typer) -> None:
         rate = fps or spec.fps or float(src.clip.fps)
         try:    # bounds that depend on the shot (abort frame) or the rate (frames of a timed path)
             points = synth.path_from_spec(spec, space, sections)
-            anim = synth.synthesise(space, points, frames=None if spec.times is not None else src.num_frames,
-                                    times=spec.times, fps=rate)
+            frames = None if spec.times is not None else src.num_frames
+            per_frame = synth.resample_path(points, frames, spec.times, rate)
+            more = synth.source_detail(space, per_frame, "time" if spec.preset else "aligned") if detail else None
+            anim = synth.synthesise(space, points, frames=frames, times=spec.times, fps=rate, detail=more)
         except ValueError as e:
             raise UserError(f"{path}: {e}") from None
         summary = {"shot": src.name, "out": str(out), "frames": anim.num_frames, "fps": round(rate, 4),
                    "path": spec.preset or f"{len(points)} points" + (" with timestamps" if spec.times is not None else ""),
-                   "variance_2pcs": round(float(space.cumulative[min(1, space.num_components - 1)]), 4)}
+                   "variance_2pcs": round(float(space.cumulative[min(1, space.num_components - 1)]), 4),
+                   "detail": "source" if detail else "none"}
         if spec.preset:
             summary["amount"] = spec.amount if spec.amount is not None else synth.DEFAULT_AMOUNT[spec.preset]
-        per_frame = synth.resample_path(points, anim.num_frames if spec.times is None else None, spec.times, rate)
         hit = synth.take_hit_frame(per_frame, synth.source_path(space), src.hit_frame, spec.preset is not None)
         leaves = synth.leaves_ball(spec.preset, anim.num_frames, sections, spec.amount, spec.abort_frame)
         if leaves:

@@ -151,6 +151,9 @@ def _preset_controls(pad: PadState, ask) -> None:
     _checkbox("re-attach right hand", "fix_hand", pad.fix_hand, ask)
     imgui.same_line()
     _checkbox("plant feet", "plant_feet", pad.plant_feet, ask)
+    _checkbox("source detail", "detail", pad.detail, ask)
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("PCs 3 and on from the shot (off: the first two PCs alone, as in the dissertation)")
     if imgui.button("pause" if pad.playing else "play"):
         ask(PadRequest("play"))
     imgui.same_line()

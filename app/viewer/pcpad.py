@@ -58,6 +58,7 @@ class Take:
     amount: float = 0.4                   # the preset's amount (presets only)
     fix_hand: bool = True
     plant_feet: bool = True
+    detail: bool = True                   # the PCs after the first two from the source (engine.synth.source_detail)
     anim: object = None                   # engine.skeleton.Clip, made when first shown
     anim_global: tuple | None = None
     path: np.ndarray | None = None        # (F, 2) the points resampled to the clip's frames
@@ -66,7 +67,7 @@ class Take:
 
     def same_recipe(self, other: "Take") -> bool:
         return (self.kind == other.kind and self.amount == other.amount and self.fix_hand == other.fix_hand
-                and self.plant_feet == other.plant_feet and self.points.shape == other.points.shape
+                and self.plant_feet == other.plant_feet and self.detail == other.detail and self.points.shape == other.points.shape
                 and np.array_equal(self.points, other.points)
                 and (self.times is None) == (other.times is None)
                 and (self.times is None or np.array_equal(self.times, other.times)))
@@ -102,6 +103,7 @@ class PadState:
     amount: float = 0.4
     fix_hand: bool = True
     plant_feet: bool = True
+    detail: bool = True                   # the source's detail beyond the two PCs (marker and new takes)
     pose: Pose | None = None              # what the viewport shows while live/playing
     impact: object = None                 # the shown take's app.takeball.TakeImpact
     ball: np.ndarray | None = None        # (3,) its ball at the frame shown
@@ -159,7 +161,10 @@ def pose_at_scores(state, scores) -> Pose:
     """World pose for two scores (no clean-up: this is the live, raw pose)."""
     pad = sync(state)
     t0 = time.perf_counter()
-    root, local = pad.pca.pose_from_scores(np.asarray(scores, float)[:2])
+    s = np.asarray(scores, float)[:2]
+    if pad.detail:
+        s = np.concatenate([s, synth.source_detail(pad.pca, s[None], "nearest")[0]])
+    root, local = pad.pca.pose_from_scores(s)
     g_rot, g_pos = _fk_single(state.rig, root, local)
     pad.pose_us = (time.perf_counter() - t0) * 1e6
     return Pose(g_rot, g_pos)
@@ -237,7 +242,7 @@ def _make_animation(state, points, times, kind: str, replace: bool = False) -> N
     the same recipe as a take the shot has already shows that one instead."""
     pad = pad_state(state)
     take = Take(kind, np.array(points, float), None if times is None else np.array(times, float),
-                float(pad.amount), bool(pad.fix_hand), bool(pad.plant_feet))
+                float(pad.amount), bool(pad.fix_hand), bool(pad.plant_feet), bool(pad.detail))
     takes = pad.takes.setdefault(state.shot.name, [])
     same = next((i for i, t in enumerate(takes) if t.same_recipe(take)), None)
     if same is not None:
@@ -261,9 +266,10 @@ def synthesise_take(state, take: Take) -> None:
     shot, rig = state.shot, state.rig
     fps = float(shot.clip.fps)
     frames = None if take.times is not None else shot.num_frames
-    anim = synth.synthesise(pad.pca, take.points, frames=frames, times=take.times, fps=fps)
     take.path = synth.resample_path(take.points, frames, take.times, fps)
     same_timeline = take.times is None and take.kind != DRAWN
+    detail = synth.source_detail(pad.pca, take.path, "time" if same_timeline else "aligned") if take.detail else None
+    anim = synth.synthesise(pad.pca, take.points, frames=frames, times=take.times, fps=fps, detail=detail)
     hit = synth.take_hit_frame(take.path, pad.guide, shot.hit_frame, same_timeline)
     leaves = synth.leaves_ball(take.kind if take.kind in synth.PRESETS else None, anim.num_frames,
                                pad.sections, take.amount)
@@ -484,6 +490,7 @@ PAD_ACTIONS = {
     "seek": (_seek, "frame"),
     "export": (_export, None), "mode": (_option("mode"), PAD_MODES), "amount": (_option("amount"), float),
     "fix_hand": (_option("fix_hand"), bool), "plant_feet": (_option("plant_feet"), bool),
+    "detail": (_option("detail"), bool),
     "loop": (_option("loop"), bool),
 }
 

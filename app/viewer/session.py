@@ -58,7 +58,7 @@ CAMERA_PIVOT_CM = 3000.0        # as OrbitCamera.pan clamps it
 CAMERA_DISTANCE_CM = (60.0, 5000.0)
 CAMERA_PITCH_DEG = (-5.0, 89.0)
 NAMES_IN_MESSAGE = 5            # invalid fields named in the panel line
-_PAD_OPTIONS = {"mode": ("pose", "draw"), "loop": bool, "fix_hand": bool, "plant_feet": bool}
+_PAD_OPTIONS = {"mode": ("pose", "draw"), "loop": bool, "fix_hand": bool, "plant_feet": bool, "detail": bool}
 
 
 class Invalid(ValueError):
@@ -100,13 +100,15 @@ def _pad_data(pad) -> dict:
         return {}
     takes = {name: [_take_data(t) for t in shot_takes] for name, shot_takes in pad.takes.items() if shot_takes}
     return {"mode": pad.mode, "preset": pad.preset, "amount": float(pad.amount), "loop": bool(pad.loop),
-            "fix_hand": bool(pad.fix_hand), "plant_feet": bool(pad.plant_feet), "takes": takes}
+            "fix_hand": bool(pad.fix_hand), "plant_feet": bool(pad.plant_feet), "detail": bool(pad.detail),
+            "takes": takes}
 
 
 def _take_data(take) -> dict:
     return {"kind": take.kind, "points": np.asarray(take.points, float).tolist(),
             "times": None if take.times is None else np.asarray(take.times, float).tolist(),
-            "amount": float(take.amount), "fix_hand": bool(take.fix_hand), "plant_feet": bool(take.plant_feet)}
+            "amount": float(take.amount), "fix_hand": bool(take.fix_hand), "plant_feet": bool(take.plant_feet),
+            "detail": bool(take.detail)}
 
 
 def change_key(settings, state, camera) -> tuple:
@@ -115,7 +117,7 @@ def change_key(settings, state, camera) -> tuple:
     o = settings.overlays
     pad = state.pc_pad
     pad_key = None if pad is None else (pad.generation, pad.mode, pad.preset, pad.amount, pad.loop,
-                                        pad.fix_hand, pad.plant_feet)
+                                        pad.fix_hand, pad.plant_feet, pad.detail)
     return (settings.engine_key(), None if settings.playing else settings.frame, settings.playing,
             settings.speed, settings.slow_motion, settings.loop, settings.render_scale, settings.antialias,
             tuple(vars(o).values()), tuple(np.asarray(camera.pivot, float).tolist()), camera.yaw,
@@ -289,7 +291,7 @@ def take_from_data(item, where: str = "take"):
     if times is not None and not 0 <= times[0] < times[-1]:
         raise Invalid(f"{where}.times (from >= 0, lasting > 0 s)")
     take = Take(item["kind"], pts, times)
-    for name in ("amount", "fix_hand", "plant_feet"):
+    for name in ("amount", "fix_hand", "plant_feet", "detail"):
         if name in item:
             setattr(take, name, _like(getattr(take, name), item[name], f"{where}.{name}"))
     if not 0.0 <= take.amount <= 1.0:

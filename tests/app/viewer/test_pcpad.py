@@ -25,15 +25,28 @@ def state(rig):
 
 
 def test_marker_sets_the_pose_of_those_scores(state, rig):
+    """The marker's pose is the two scores' with the source's detail (engine.synth.source_detail),
+    or without it the two PCs alone; on the guide, with the detail, it is the shot's own pose."""
+    from engine import synth
+    from engine.skeleton import Clip
     pcpad.set_scores(state, [1.0, -0.5])
     pad = state.pc_pad
     pose = pcpad.active_pose(state)
     assert pad.live and pose is not None
-    root, local = pad.pca.pose_from_scores(np.array([1.0, -0.5]))
-    from engine.skeleton import Clip
-    g_rot, g_pos = clip_fk(rig.skeleton, Clip(root[None], local[None]))
-    assert np.allclose(pose.global_positions, g_pos[0], atol=1e-9)
-    assert np.all(quat.angle_between(pose.global_rotations, g_rot[0]) < 1e-5)
+    s = np.array([1.0, -0.5])
+    full = np.concatenate([s, synth.source_detail(pad.pca, s[None], "nearest")[0]])
+    for scores in (full, s):
+        pose = pcpad.active_pose(state)
+        root, local = pad.pca.pose_from_scores(scores)
+        g_rot, g_pos = clip_fk(rig.skeleton, Clip(root[None], local[None]))
+        assert np.allclose(pose.global_positions, g_pos[0], atol=1e-9)
+        assert np.all(quat.angle_between(pose.global_rotations, g_rot[0]) < 1e-5)
+        pad.detail = False
+        pcpad.set_scores(state, s)
+    pad.detail = True
+    pcpad.set_scores(state, pad.guide[20])
+    shot_pos = state.shot.fk[1][20]
+    assert np.linalg.norm(pcpad.active_pose(state).global_positions - shot_pos, axis=-1).max() < 1.0
     pcpad.release(state)
     assert pcpad.active_pose(state) is None
 
