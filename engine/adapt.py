@@ -147,13 +147,16 @@ class Adapter:
     """Per-shot precomputation (done once); :meth:`adapt` and :meth:`adapt_frame`
     then cost one compiled call each."""
 
-    def __init__(self, rig, shot):
+    def __init__(self, rig, shot, end_guard: bool = True):
+        """``end_guard``: keep the shot's first and last frames FK (:meth:`blend`); off for a
+        synthesised take whose hit lies at one of its ends (engine.cleanup_hit)."""
         skel, clip = shot.skeleton, shot.clip
         if list(skel.names) != list(rig.skeleton.names):
             raise ValueError(f"shot {shot.name!r}: joints are not in the rig's order "
                              "(load it with engine.library.conform_to_rig)")
         self.rig = rig
         self.shot = shot
+        self.end_guard = bool(end_guard)
         self.hit_frame = int(shot.hit_frame)
         self.num_frames = clip.num_frames
         self.parents = np.ascontiguousarray(skel.parents, np.int64)
@@ -208,7 +211,7 @@ class Adapter:
         F = len(blend)
         frames = np.arange(F)
         for end, steps in ((0, frames), (F - 1, F - 1 - frames)):
-            if blend[end] > 0.0:
+            if blend[end] > 0.0 and self.end_guard:
                 t = np.clip(steps / END_GUARD_FRAMES, 0.0, 1.0)
                 blend = blend * (t * t * (3.0 - 2.0 * t))
         return blend

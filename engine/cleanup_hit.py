@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import quat
-from .adapt import AdaptSettings, Adapter
+from .adapt import END_GUARD_FRAMES, AdaptSettings, Adapter
 from .library import Shot
 from .rig import Rig
 from .skeleton import Clip, Skeleton
@@ -44,7 +44,10 @@ def meet_ball(rig: Rig, skeleton: Skeleton, clip: Clip, source_face: np.ndarray,
     face = quat.rotate(g_rot[hit_frame, rig.bat_joint], normal)
     bat = g_pos[hit_frame, rig.bat_joint]
     target = bat if hit_point is None else np.asarray(hit_point, float)
-    a = Adapter(rig, take).adapt(target, AdaptSettings(), turn=turn_between(face, source_face))
+    # a take whose hit lies at one of its ends (a drawn path that stops at the hit pose) meets
+    # the ball there: the shots' rule that the ends stay FK would keep the bat from it
+    inside = END_GUARD_FRAMES <= hit_frame < clip.num_frames - END_GUARD_FRAMES
+    a = Adapter(rig, take, end_guard=inside).adapt(target, AdaptSettings(), turn=turn_between(face, source_face))
     clip.local_rotations[:] = a.local_rotations
     kept = quat.rotate(a.global_rotations[hit_frame, rig.bat_joint], normal)
     angle = float(np.degrees(np.arccos(np.clip(np.dot(kept, source_face), -1.0, 1.0))))

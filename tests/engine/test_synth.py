@@ -354,6 +354,23 @@ def test_align_to_guide_walks_forward_and_finds_a_slowed_path(body):
         synth.synthesise(body, guide, frames=F, detail=np.zeros((F, 3)))
 
 
+def test_a_take_whose_hit_is_at_an_end_still_meets_the_ball(rig, library):
+    """A drawn take that stops at the shot's hit pose (its hit its last frame) or starts there,
+    and a take of one frame, meet the ball at the hit point with the source's face: the shots'
+    rule that their ends stay FK (engine.adapt's end guard) kept the bat 55-100 cm from it with
+    the face 48 deg off."""
+    shot = library["cover_drive"]
+    space = pcam.fit_clip(rig, shot.clip, "body")
+    guide, h = synth.source_path(space), shot.hit_frame
+    for path in (guide[h - 20:h + 1], guide[h:h + 20], guide[h:h + 1]):
+        anim = synth.synthesise(space, path, frames=len(path))         # two PCs: the bat far from the hit
+        hit = synth.take_hit_frame(path, guide, h, same_timeline=False)
+        assert hit in (0, len(path) - 1)
+        res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, source_hit_frame=h, hit_frame=hit)
+        assert res.bat_moved_cm > 50.0, (len(path), hit)
+        assert res.bat_error_cm < 0.01 and res.face_angle_deg < 5.0, (len(path), hit, res.summary())
+
+
 def test_meet_ball_brings_the_bat_to_the_point_with_the_source_s_face_and_leaves_the_ends_alone(rig, library):
     """engine.cleanup_hit.meet_ball on the cover drive's 2-PC take: without a point the bat joint
     stays where it was and the face turns to within 15 deg of the source's (it was 88 deg off: the
