@@ -40,7 +40,7 @@ from .cleanup_hit import meet_ball
 from .cleanup_nb import BAT_GIVE_ROUNDS, grip_frames, leg_frames
 from .fk_nb import frames_fk
 from .skeleton import Clip, Skeleton, carried_pose, clip_fk, local_translations, relative_pose
-from .synth import frame_map
+from .synth_detail import frame_map
 
 PLANT_SPEED = 15.0     # cm/s: slower than this counts as planted ...
 PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import typer
 
 from app.errors import MAX_FPS, MIN_FPS, UserError, cli_errors, number
@@ -46,15 +48,9 @@ def register(cli: typer.Typer) -> None:
         ball. Prints a JSON summary (frames, clean-up errors, the take's hit frame,
         the face there against the source's, how far the bat was brought).
         """
-        from engine import bvh, cleanup, synth  # numba (0.25 s): when the command runs
-        from engine import pca as pcam
+        from engine import bvh, synth  # numba (0.25 s): when the command runs
 
-        if out.suffix.lower() != ".bvh":
-            raise UserError(f"--out {out}: only .bvh output is supported")
-        if not out.parent.exists():
-            raise UserError(f"--out {out}: folder {out.parent} does not exist")
-        if out.is_dir():
-            raise UserError(f"--out {out} is a folder")
+        _check_out(out)
         obj = read_json(path, "path file", MAX_PATH_FILE_BYTES)
         try:
             spec = synth.parse_path_spec(obj)
@@ -62,39 +58,82 @@ def register(cli: typer.Typer) -> None:
             raise UserError(f"{path}: {e}") from None
         if fps is not None:
             fps = number("--fps", fps, MIN_FPS, MAX_FPS)
-
         rig, shots = load_shots(library)
         src = find_shot(shots, shot)
-        space = pcam.fit_clip(rig, src.clip, "body")
-        sections = synth.shot_sections(src.fk[1][:, rig.bat_joint], src.hit_frame)
-        rate = fps or spec.fps or float(src.clip.fps)
-        try:    # bounds that depend on the shot (abort frame) or the rate (frames of a timed path)
-            points = synth.path_from_spec(spec, space, sections)
-            frames = None if spec.times is not None else src.num_frames
-            per_frame = synth.resample_path(points, frames, spec.times, rate)
-            more = synth.source_detail(space, per_frame, "time" if spec.preset else "aligned") if detail else None
-            anim = synth.synthesise(space, points, frames=frames, times=spec.times, fps=rate, detail=more)
-        except ValueError as e:
-            raise UserError(f"{path}: {e}") from None
-        summary = {"shot": src.name, "out": str(out), "frames": anim.num_frames, "fps": round(rate, 4),
-                   "path": spec.preset or f"{len(points)} points" + (" with timestamps" if spec.times is not None else ""),
-                   "variance_2pcs": round(float(space.cumulative[min(1, space.num_components - 1)]), 4),
-                   "detail": "source" if detail else "none"}
-        if spec.preset:
-            summary["amount"] = spec.amount if spec.amount is not None else synth.DEFAULT_AMOUNT[spec.preset]
-        hit = synth.take_hit_frame(per_frame, synth.source_path(space), src.hit_frame, spec.preset is not None)
-        leaves = synth.leaves_ball(spec.preset, anim.num_frames, sections, spec.amount, spec.abort_frame)
-        if leaves:
-            summary["leaves_ball"] = True
-        if fix_hand or plant_feet or (keep_face and not leaves):
-            res = cleanup.cleanup(rig, src.skeleton, anim, src.clip, fix_hand, plant_feet,
-                                  source_hit_frame=src.hit_frame if keep_face and not leaves else None,
-                                  hit_frame=hit, meet_hit_point=meet)
-            anim = res.clip
-            summary["cleanup"] = {k: round(v, 3) if isinstance(v, float) else v for k, v in res.summary().items()}
+        take = _synthesise(rig, src, spec, fps or spec.fps or float(src.clip.fps), detail, path)
+        summary = take.summary(src, out)
+        anim = take.anim
+        if fix_hand or plant_feet or (keep_face and not take.leaves):
+            anim, summary["cleanup"] = _cleaned(rig, src, take, fix_hand, plant_feet, keep_face, meet)
         synth.check_finite_clip(anim)       # ValueError: one line from cli_errors, nothing written
         if src.capture is not None:     # a user's shot: back on its own skeleton and units
             src.capture.write(out, anim.local_rotations, anim.root_positions, name=f"{src.name}_synth")
         else:
             bvh.write(out, src.skeleton, anim)
         print(json.dumps(summary, indent=1))
+
+
+def _check_out(out: Path) -> None:
+    if out.suffix.lower() != ".bvh":
+        raise UserError(f"--out {out}: only .bvh output is supported")
+    if not out.parent.exists():
+        raise UserError(f"--out {out}: folder {out.parent} does not exist")
+    if out.is_dir():
+        raise UserError(f"--out {out} is a folder")
+
+
+@dataclass
+class _Take:
+    spec: object            # engine.synth.PathSpec
+    space: object           # engine.pca.ShotPCA of the shot's body
+    sections: object        # engine.synth.Sections
+    points: np.ndarray      # (N, 2) the path's scores
+    per_frame: np.ndarray   # (F, 2) resampled to the take's frames
+    rate: float
+    detail: bool
+    anim: object            # engine.skeleton.Clip, before the clean-up
+    hit_frame: int          # the take's hit frame
+    leaves: bool            # an aborted take that leaves the ball
+
+    def summary(self, src, out: Path) -> dict:
+        from engine import synth
+        spec, space = self.spec, self.space
+        out_dict = {"shot": src.name, "out": str(out), "frames": self.anim.num_frames, "fps": round(self.rate, 4),
+                    "path": spec.preset or f"{len(self.points)} points" + (" with timestamps" if spec.times is not None
+                                                                           else ""),
+                    "variance_2pcs": round(float(space.cumulative[min(1, space.num_components - 1)]), 4),
+                    "detail": "source" if self.detail else "none"}
+        if spec.preset:
+            out_dict["amount"] = spec.amount if spec.amount is not None else synth.DEFAULT_AMOUNT[spec.preset]
+        if self.leaves:
+            out_dict["leaves_ball"] = True
+        return out_dict
+
+
+def _synthesise(rig, src, spec, rate: float, detail: bool, path: Path) -> _Take:
+    """The take of ``spec`` on shot ``src``; the path file's bounds that depend on the shot (abort
+    frame) or the rate (frames of a timed path) as a UserError naming ``path``."""
+    from engine import synth, synth_detail
+    from engine import pca as pcam
+    space = pcam.fit_clip(rig, src.clip, "body")
+    sections = synth.shot_sections(src.fk[1][:, rig.bat_joint], src.hit_frame)
+    try:
+        points = synth.path_from_spec(spec, space, sections)
+        frames = None if spec.times is not None else src.num_frames
+        per_frame = synth.resample_path(points, frames, spec.times, rate)
+        more = synth_detail.source_detail(space, per_frame, "time" if spec.preset else "aligned") if detail else None
+        anim = synth.synthesise(space, points, frames=frames, times=spec.times, fps=rate, detail=more)
+    except ValueError as e:
+        raise UserError(f"{path}: {e}") from None
+    hit = synth.take_hit_frame(per_frame, synth.source_path(space), src.hit_frame, spec.preset is not None)
+    leaves = synth.leaves_ball(spec.preset, anim.num_frames, sections, spec.amount, spec.abort_frame)
+    return _Take(spec, space, sections, points, per_frame, rate, detail, anim, hit, leaves)
+
+
+def _cleaned(rig, src, take: _Take, fix_hand: bool, plant_feet: bool, keep_face: bool, meet: bool):
+    """(the cleaned clip, the clean-up's JSON figures)."""
+    from engine import cleanup
+    res = cleanup.cleanup(rig, src.skeleton, take.anim, src.clip, fix_hand, plant_feet,
+                          source_hit_frame=src.hit_frame if keep_face and not take.leaves else None,
+                          hit_frame=take.hit_frame, meet_hit_point=meet)
+    return res.clip, {k: round(v, 3) if isinstance(v, float) else v for k, v in res.summary().items()}

@@ -32,7 +32,7 @@ import numpy as np
 from app.viewer.capture import safe_stem, write_new
 from app.viewer.state import Pose
 from app.viewer.takeball import ball_in_take, take_impact
-from engine import bvh, cleanup, synth
+from engine import bvh, cleanup, synth, synth_detail
 from engine import pca as pcam
 from engine.skeleton import pose_fk
 
@@ -58,7 +58,7 @@ class Take:
     amount: float = 0.4                   # the preset's amount (presets only)
     fix_hand: bool = True
     plant_feet: bool = True
-    detail: bool = True                   # the PCs after the first two from the source (engine.synth.source_detail)
+    detail: bool = True                   # the PCs after the first two from the source (engine.synth_detail.source_detail)
     anim: object = None                   # engine.skeleton.Clip, made when first shown
     anim_global: tuple | None = None
     path: np.ndarray | None = None        # (F, 2) the points resampled to the clip's frames
@@ -163,7 +163,7 @@ def pose_at_scores(state, scores) -> Pose:
     t0 = time.perf_counter()
     s = np.asarray(scores, float)[:2]
     if pad.detail:
-        s = np.concatenate([s, synth.source_detail(pad.pca, s[None], "nearest")[0]])
+        s = np.concatenate([s, synth_detail.source_detail(pad.pca, s[None], "nearest")[0]])
     root, local = pad.pca.pose_from_scores(s)
     g_rot, g_pos = _fk_single(state.rig, root, local)
     pad.pose_us = (time.perf_counter() - t0) * 1e6
@@ -268,7 +268,7 @@ def synthesise_take(state, take: Take) -> None:
     frames = None if take.times is not None else shot.num_frames
     take.path = synth.resample_path(take.points, frames, take.times, fps)
     same_timeline = take.times is None and take.kind != DRAWN
-    detail = synth.source_detail(pad.pca, take.path, "time" if same_timeline else "aligned") if take.detail else None
+    detail = synth_detail.source_detail(pad.pca, take.path, "time" if same_timeline else "aligned") if take.detail else None
     anim = synth.synthesise(pad.pca, take.points, frames=frames, times=take.times, fps=fps, detail=detail)
     hit = synth.take_hit_frame(take.path, pad.guide, shot.hit_frame, same_timeline)
     leaves = synth.leaves_ball(take.kind if take.kind in synth.PRESETS else None, anim.num_frames,

@@ -3,7 +3,7 @@ import itertools
 import numpy as np
 import pytest
 
-from engine import bvh, cleanup, quat, synth
+from engine import bvh, cleanup, quat, synth, synth_detail
 from engine import pca as pcam
 from engine.library import conform_to_rig
 from engine.skeleton import clip_fk
@@ -299,7 +299,7 @@ def test_a_take_meets_the_ball_where_the_shot_does_with_the_face_and_sends_it_th
     for (preset, amount), detail in itertools.product(cases, (False, True)):
         path = base if amount is None else synth.preset_path(base, preset, amount, sections)
         assert not synth.leaves_ball(None if amount is None else preset, shot.num_frames, sections, amount)
-        more = synth.source_detail(space, path, "time") if detail else None
+        more = synth_detail.source_detail(space, path, "time") if detail else None
         anim = synth.synthesise(space, path, frames=shot.num_frames, detail=more)
         res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, source_hit_frame=h)
         g_rot, g_pos = clip_fk(rig.skeleton, res.clip)
@@ -316,7 +316,7 @@ def test_a_take_meets_the_ball_where_the_shot_does_with_the_face_and_sends_it_th
 
 @pytest.mark.parametrize("name", _shot_names())
 def test_the_source_s_detail_gives_the_shot_back_on_its_own_path(rig, library, name):
-    """engine.synth.source_detail: the shot's own 2-PC path with the source's detail by time or
+    """engine.synth_detail.source_detail: the shot's own 2-PC path with the source's detail by time or
     along the path is the shot (every joint within 0.01 cm); by the soft nearest (the marker) within
     a few cm on most frames. Two PCs alone were 5-11 cm off on average, the cover drive's bat 94
     cm at the hit."""
@@ -324,7 +324,7 @@ def test_the_source_s_detail_gives_the_shot_back_on_its_own_path(rig, library, n
     space = pcam.fit_clip(rig, shot.clip, "body")
     guide = synth.source_path(space)
     for how in ("time", "aligned", "nearest"):
-        detail = synth.source_detail(space, guide, how)
+        detail = synth_detail.source_detail(space, guide, how)
         assert detail.shape == (shot.num_frames, space.num_components - 2)
         g_pos = clip_fk(rig.skeleton, synth.synthesise(space, guide, frames=shot.num_frames, detail=detail))[1]
         err = np.linalg.norm(g_pos - shot.fk[1], axis=-1).max(axis=1)
@@ -342,14 +342,14 @@ def test_align_to_guide_walks_forward_and_finds_a_slowed_path(body):
     detail of the wrong size too."""
     guide = synth.source_path(body)
     F = len(guide)
-    assert np.array_equal(synth.align_to_guide(guide, guide), np.arange(F))
+    assert np.array_equal(synth_detail.align_to_guide(guide, guide), np.arange(F))
     slow = np.repeat(guide, 2, axis=0)
-    m = synth.align_to_guide(slow, guide)
+    m = synth_detail.align_to_guide(slow, guide)
     assert np.all(np.diff(m) >= 0) and np.array_equal(m, np.repeat(np.arange(F), 2))
     wobbly = guide + np.random.default_rng(0).normal(0, 0.3, guide.shape)
-    assert np.all(np.diff(synth.align_to_guide(wobbly, guide)) >= 0)
+    assert np.all(np.diff(synth_detail.align_to_guide(wobbly, guide)) >= 0)
     with pytest.raises(ValueError, match="detail map"):
-        synth.source_detail(body, guide, "closest")
+        synth_detail.source_detail(body, guide, "closest")
     with pytest.raises(ValueError, match="detail must be"):
         synth.synthesise(body, guide, frames=F, detail=np.zeros((F, 3)))
 

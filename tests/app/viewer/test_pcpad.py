@@ -25,16 +25,16 @@ def state(rig):
 
 
 def test_marker_sets_the_pose_of_those_scores(state, rig):
-    """The marker's pose is the two scores' with the source's detail (engine.synth.source_detail),
+    """The marker's pose is the two scores' with the source's detail (engine.synth_detail.source_detail),
     or without it the two PCs alone; on the guide, with the detail, it is the shot's own pose."""
-    from engine import synth
+    from engine import synth_detail
     from engine.skeleton import Clip
     pcpad.set_scores(state, [1.0, -0.5])
     pad = state.pc_pad
     pose = pcpad.active_pose(state)
     assert pad.live and pose is not None
     s = np.array([1.0, -0.5])
-    full = np.concatenate([s, synth.source_detail(pad.pca, s[None], "nearest")[0]])
+    full = np.concatenate([s, synth_detail.source_detail(pad.pca, s[None], "nearest")[0]])
     for scores in (full, s):
         pose = pcpad.active_pose(state)
         root, local = pad.pca.pose_from_scores(scores)
