@@ -58,14 +58,19 @@ class Capture:
               blend: np.ndarray | None = None, name: str | None = None) -> None:
         """Write an engine result on the file's own skeleton (format by extension)."""
         from .export import write_take
-        skel, clip = self.to_file(local_rotations, root_positions)
         name = name or f"{self.shot.name}_adapted"
         if Path(out).suffix.lower() in (".glb", ".gltf"):
             from .gltf_export import write_gltf   # no batsman mesh on a foreign skeleton
-            write_gltf(out, skel, clip, with_mesh=False, name=name)
-        else:
-            # the file's own numbers wherever a rotation is unchanged (legs, untouched frames)
-            write_take(out, skel, clip, name=name, blend=blend, reference=getattr(self.file_clip, "file_euler", None))
+            write_gltf(out, *self.to_file_cm(local_rotations, root_positions), with_mesh=False, name=name)
+            return
+        skel, clip = self.to_file(local_rotations, root_positions)
+        # the file's own numbers wherever a rotation is unchanged (legs, untouched frames)
+        write_take(out, skel, clip, name=name, blend=blend, reference=getattr(self.file_clip, "file_euler", None))
+
+    def to_file_cm(self, local_rotations: np.ndarray, root_positions: np.ndarray) -> tuple[Skeleton, Clip]:
+        """:meth:`to_file` in centimetres: the file's joints at their real size, for a glTF (in
+        metres; the file's own units there made a CMU golfer 32 cm tall)."""
+        return scaled(*self.to_file(local_rotations, root_positions), self.scale)
 
     def to_file(self, local_rotations: np.ndarray, root_positions: np.ndarray) -> tuple[Skeleton, Clip]:
         """An engine result (cm, rig joints) as a take on the file's own skeleton and units."""

@@ -84,44 +84,53 @@ def write_csv(out, skeleton: Skeleton, clip: Clip, limits: np.ndarray | None, bl
     bvh.atomic_write_text(out, buf.getvalue().replace("-0.000000", "0.000000"))
 
 
-def ball_track(rig, shot, clip: Clip, hit_point: np.ndarray, ball_start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def ball_track(rig, shot, clip: Clip, hit_point: np.ndarray, ball_start: np.ndarray, hit_frame: int | None = None,
+               flight_path: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The ball of a take ``(K,)`` s and ``(K, 3)`` cm: on its straight line from
-    ``ball_start``, at ``hit_point`` exactly at the shot's hit frame, then its flight
-    off the bat (engine.ballistics.shot_flight) to the end of the clip."""
+    ``ball_start``, at ``hit_point`` exactly at the hit frame (the shot's, or ``hit_frame``),
+    then its flight (``flight_path``, samples 1/120 s apart; by default off the bat,
+    engine.ballistics.shot_flight) to the end of the clip."""
     from . import ballistics  # numba: only when a glTF with the ball is written
     from .skeleton import clip_fk
-    h, fps, F = shot.hit_frame, clip.fps, clip.num_frames
+    h = shot.hit_frame if hit_frame is None else int(hit_frame)
+    fps, F = clip.fps, clip.num_frames
     before = np.arange(h + 1)
     incoming = ballistics.incoming_ball(ball_start, hit_point, h, before, fps)
-    g_rot, g_pos = clip_fk(shot.skeleton, clip)
     after = max(F - 1 - h, 0) / fps
-    fl, _ = ballistics.shot_flight(rig, shot, g_rot, g_pos, ball_start, hit_point, duration=after)
-    dt = 1.0 / 120.0                                  # the flight's own sampling (Flight.path)
-    k = np.arange(1, len(fl.path))
+    if flight_path is None:
+        g_rot, g_pos = clip_fk(shot.skeleton, clip)
+        flight_path = ballistics.shot_flight(rig, shot, g_rot, g_pos, ball_start, hit_point, duration=after,
+                                             hit_frame=h)[0].path
+    dt = ballistics.FLY_DT                            # the flight's own sampling (Flight.path)
+    k = np.arange(1, len(flight_path))
     keep = k * dt <= after + 1e-9
     times = np.concatenate([before / fps, h / fps + k[keep] * dt])
-    return times, np.concatenate([incoming, fl.path[1:][keep]])
+    return times, np.concatenate([incoming, np.asarray(flight_path)[1:][keep]])
+
+
+def take_animation(rig, shot, clip: Clip, kind: str, name: str, hit_point: np.ndarray, ball_start: np.ndarray,
+                   hit_frame: int | None = None, flight_path: np.ndarray | None = None):
+    """One animation of a glTF (engine.gltf_export.Take): ``clip`` with its ball (:func:`ball_track`)
+    and its extras (take ``kind``, shot, fps, hit frame and time, hit point in m and cm, units)."""
+    from .gltf_export import METRES_PER_CM, Take
+    h = shot.hit_frame if hit_frame is None else int(hit_frame)
+    cm = [round(float(v), 2) for v in hit_point]
+    times, ball = ball_track(rig, shot, clip, np.asarray(hit_point, float), ball_start, h, flight_path)
+    extras = {"take": kind, "shot": shot.name, "hit_frame": h, "hit_time_s": round(h / clip.fps, 6),
+              "hit_point_cm": cm, "hit_point_m": [round(v * METRES_PER_CM, 6) for v in cm],
+              "frame_numbering": "frame n at n / fps s (frame 0 at 0 s): Blender at the same frame rate "
+                                 "shows frame n at its frame n"}
+    return Take(name, clip, extras, times, ball)
 
 
 def shot_takes(rig, shot, clip: Clip, hit_point: np.ndarray, ball_start: np.ndarray,
                source_hit_point: np.ndarray | None = None) -> list:
     """The two animations of an adapted shot's glTF: the adapted ``clip`` (meeting
-    ``hit_point``, cm) and the source, each with its ball and its extras (take,
-    shot, fps, hit frame and time, hit point in m and cm, units)."""
-    from .gltf_export import METRES_PER_CM, Take
+    ``hit_point``, cm) and the source, each with its ball (:func:`take_animation`)."""
     from .skeleton import clip_fk
     src_point = clip_fk(shot.skeleton, shot.clip)[1][shot.hit_frame, shot.bat_joint] \
         if source_hit_point is None else np.asarray(source_hit_point, float)
-    takes = []
-    for kind, take_clip, point in (("adapted", clip, np.asarray(hit_point, float)), ("source", shot.clip, src_point)):
-        cm = [round(float(v), 2) for v in point]
-        name = f"{shot.name}_source" if kind == "source" else \
-            f"{shot.name}_hit_{'_'.join(f'{v:.0f}' for v in point)}cm"
-        times, ball = ball_track(rig, shot, take_clip, point, ball_start)
-        extras = {"take": kind, "shot": shot.name, "hit_frame": int(shot.hit_frame),
-                  "hit_time_s": round(shot.hit_frame / take_clip.fps, 6), "hit_point_cm": cm,
-                  "hit_point_m": [round(v * METRES_PER_CM, 6) for v in cm],
-                  "frame_numbering": "frame n at n / fps s (frame 0 at 0 s): Blender at the same frame rate "
-                                     "shows frame n at its frame n"}
-        takes.append(Take(name, take_clip, extras, times, ball))
-    return takes
+    point = np.asarray(hit_point, float)
+    return [take_animation(rig, shot, clip, "adapted", f"{shot.name}_hit_{'_'.join(f'{v:.0f}' for v in point)}cm",
+                           point, ball_start),
+            take_animation(rig, shot, shot.clip, "source", f"{shot.name}_source", src_point, ball_start)]

@@ -13,6 +13,7 @@ clean video."""
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import queue
 import shutil
@@ -256,17 +257,36 @@ def write_frames(images, out_dir: Path, stem: str, fps: float, png: bool = True,
     return written
 
 
-def write_motion(out_dir: Path, stem: str, skeleton, clip, formats, takes=None) -> list[Path]:
+def write_motion(out_dir: Path, stem: str, skeleton, clip, formats, takes=None, source_capture=None) -> list[Path]:
     """The clip as ``{stem}.bvh`` / ``.glb`` / ``.gltf`` in ``out_dir`` (those asked for);
-    the glTF holds ``takes`` (engine.export.shot_takes: adapted + source, the ball) if given."""
+    the glTF holds ``takes`` (engine.export.shot_takes: adapted + source, the ball) if given.
+    A user's capture (``source_capture``, engine.capture.Capture) goes back on its own skeleton:
+    the BVH in its units, the glTF at its real size without the batsman's mesh."""
     paths = []
     if "bvh" in formats:
         paths.append(out_dir / f"{stem}.bvh")
-        bvh.write(paths[-1], skeleton, clip)
+        if source_capture is None:
+            bvh.write(paths[-1], skeleton, clip)
+        else:
+            source_capture.write(paths[-1], clip.local_rotations, clip.root_positions, name=stem)
+    anims = clip if takes is None else takes
+    if source_capture is not None:
+        skeleton, anims = _on_capture_skeleton(source_capture, anims)
     for ext in ("glb", "gltf"):
         if ext in formats:
-            paths.append(write_gltf(out_dir / f"{stem}.{ext}", skeleton, clip if takes is None else takes, name=stem))
+            paths.append(write_gltf(out_dir / f"{stem}.{ext}", skeleton, anims, name=stem,
+                                    with_mesh=source_capture is None))
     return paths
+
+
+def _on_capture_skeleton(source_capture, anims):
+    """(the capture's file skeleton in cm, ``anims`` (a clip or engine.gltf_export.Take list) on it)."""
+    def moved(c):
+        return source_capture.to_file_cm(c.local_rotations, c.root_positions)
+    if not isinstance(anims, list):
+        return moved(anims)
+    takes = [dataclasses.replace(t, clip=moved(t.clip)[1]) for t in anims]
+    return moved(anims[0].clip)[0], takes
 
 
 def export_shot(out_dir, images, fps: float, skeleton, clip, stem: str = "shot", formats=None, takes=None,
@@ -291,13 +311,13 @@ class ExportJob:
     nothing."""
 
     def __init__(self, out_dir, num_frames: int, fps: float, skeleton, clip, stem: str = "shot", formats=None,
-                 takes=None):
+                 takes=None, source_capture=None):
         formats = check_formats(formats)
         self.target, self.tmp = _claim_temp_folder(out_dir)
         self.num_frames, self.next_frame, self.done = int(num_frames), 0, False
         self.encoder = None
         try:
-            write_motion(self.tmp, stem, skeleton, clip, formats, takes)
+            write_motion(self.tmp, stem, skeleton, clip, formats, takes, source_capture)
             if "png" in formats or "mp4" in formats:
                 self.encoder = FrameEncoder(self.tmp, stem, fps, "png" in formats, "mp4" in formats)
             else:

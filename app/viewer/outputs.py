@@ -79,7 +79,8 @@ class Outputs:
             takes = None if adapted is None else shot_takes(state.rig, shot, clip, state.desired_hit_point,
                                                             state.ball_start, shot.hit_point)
             stem = shot.name if adapted is None else f"{shot.name}_adapted"
-            job = capture.ExportJob(out, state.num_frames, state.fps, shot.skeleton, clip, stem, formats, takes)
+            job = capture.ExportJob(out, state.num_frames, state.fps, shot.skeleton, clip, stem, formats, takes,
+                                    shot.capture)
         except Exception as e:
             self._failed(out, claimed, e)
             return

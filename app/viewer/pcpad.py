@@ -382,7 +382,11 @@ def export_animation(state, path) -> str:
     pad = pad_state(state)
     if pad.anim is None:
         raise ValueError("no synthesised animation to export")
-    bvh.write(path, state.shot.skeleton, pad.anim)
+    if state.shot.capture is not None:       # a user's shot: back on its own skeleton and units
+        state.shot.capture.write(path, pad.anim.local_rotations, pad.anim.root_positions,
+                                 name=f"{state.shot.name}_synth")
+    else:
+        bvh.write(path, state.shot.skeleton, pad.anim)
     return str(path)
 
 

@@ -258,6 +258,51 @@ def test_view_opens_a_user_library(tmp_path):
     refused(run("view", "--library", tmp_path / "none", "--headless", "--frames", 1), "no shot library")
 
 
+def _gltf_bone_lengths_m(path) -> dict:
+    import pygltflib
+    f = pygltflib.GLTF2().load(str(path))
+    assert not f.meshes                         # no batsman mesh on a user's skeleton
+    return {n.name: float(np.linalg.norm(n.translation or [0, 0, 0])) for n in f.nodes}
+
+
+def test_a_capture_s_gltf_is_at_its_real_size(tmp_path):
+    """A capture adapted to glTF keeps the file's joints at their real size in metres: the
+    golfer's shin 39 cm (it was written in the file's units as centimetres: 7 cm, a golfer 32
+    cm tall)."""
+    out = tmp_path / "golf.glb"
+    r = run("adapt", "--bvh", kit.GOLF, "--offset", 5, 0, 0, "--out", out)
+    assert r.returncode == 0, r.stderr
+    src = kit.read_bvh(kit.GOLF)
+    lengths = _gltf_bone_lengths_m(out)
+    for name in ("LeftLeg", "LeftFoot", "RightForeArm"):
+        file_len = np.linalg.norm(src["offsets"][src["names"].index(name)]) * CMU_UNIT / 100.0
+        assert lengths[name] == pytest.approx(file_len, rel=1e-3), name
+
+
+def test_the_viewer_exports_a_user_shot_on_its_own_skeleton(tmp_path):
+    """The viewer's export of a user's shot writes the BVH on the file's own skeleton and units
+    (names, channels, offsets as read) and the glTF at its real size without the batsman (it
+    failed: "skin joint 'Spine2' is not in the skeleton")."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    path = kit.write_family(lib / "swing.bvh", "generic")
+    assert run("library", "init", lib).returncode == 0
+    script = tmp_path / "export.json"
+    script.write_text(json.dumps([{"frame": 2, "type": "export", "dir": str(tmp_path / "out"),
+                                   "formats": ["bvh", "glb"]}]))
+    r = run("view", "--library", lib, "--headless", "--frames", 6, "--script", script)
+    assert r.returncode == 0, r.stderr
+    bvhs, glbs = list((tmp_path / "out").glob("*.bvh")), list((tmp_path / "out").glob("*.glb"))
+    assert len(bvhs) == 1 and len(glbs) == 1
+    src, res = kit.read_bvh(path), kit.read_bvh(bvhs[0])
+    assert res["names"] == src["names"] and res["channels"] == src["channels"]
+    np.testing.assert_allclose(res["offsets"], src["offsets"], atol=1e-4)
+    cap = load_capture(path)
+    lengths = _gltf_bone_lengths_m(glbs[0])
+    for j, name in enumerate(src["names"][1:], start=1):
+        assert lengths[name] == pytest.approx(np.linalg.norm(src["offsets"][j]) * cap.scale / 100.0, abs=1e-6)
+
+
 def test_render_strip_of_a_user_shot(tmp_path):
     kit.write_family(tmp_path / "swing.bvh", "generic")
     assert run("library", "init", tmp_path).returncode == 0

@@ -376,6 +376,15 @@ def test_khronos_validator_finds_no_error_and_no_warning(shots, tmp_path, ext):
     assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), issues["messages"][:5]
 
 
+def test_khronos_validator_on_a_capture_s_gltf(tmp_path):
+    """A user's capture (the CMU golf swing) as glTF on its own skeleton, at its real size."""
+    from tests.capture_kit import GOLF
+    code, _, err = adapt("--bvh", GOLF, "--offset", 5, 0, 0, "--out", tmp_path / "golf.glb")
+    assert code == 0, err
+    issues = validate(tmp_path / "golf.glb")
+    assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), issues["messages"][:5]
+
+
 def test_khronos_validator_on_the_bundled_mesh():
     issues = validate(ROOT / "assets" / "batsman.glb")
     assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), issues["messages"][:5]
