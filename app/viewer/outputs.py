@@ -5,14 +5,16 @@ capture readouts (``last_capture``, ``last_export``, ``export_progress``)."""
 from __future__ import annotations
 
 from contextlib import nullcontext
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
-from app.viewer import capture
+from app.viewer import capture, pcpad
 from app.viewer.state import ExportNote
 from app.viewer.update import ball_at, pose_at
-from engine.export import shot_takes
+from engine.export import shot_takes, take_animation
 from engine.skeleton import Clip
 
 EXPORT_BUDGET_S = 0.02     # export rendering per viewer frame: the window stays responsive
@@ -66,37 +68,30 @@ class Outputs:
                 self._step(1.0)
 
     def _start(self, out, formats) -> None:
-        """An export job for the adapted shot (the source shot when nothing is adapted): the
-        motion (BVH / glTF with both takes and the ball) at once, then every frame rendered
-        at the viewport's size (PNG sequence, mp4) a few at a time."""
+        """An export job for what the viewport shows (:func:`export_subject`): the motion (BVH /
+        glTF with its takes and the ball) at once, then every frame rendered at the viewport's
+        size (PNG sequence, mp4) a few at a time."""
         state, claimed = self.state, out is None
         try:
             out = capture.new_export_dir() if claimed else out
-            shot, adapted = state.shot, state.adaptation
-            if shot is None:
-                raise ValueError("no shot loaded")
-            clip = shot.clip if adapted is None else Clip(adapted.root_positions, adapted.local_rotations, shot.clip.fps)
-            takes = None if adapted is None else shot_takes(state.rig, shot, clip, state.desired_hit_point,
-                                                            state.ball_start, shot.hit_point)
-            stem = shot.name if adapted is None else f"{shot.name}_adapted"
-            job = capture.ExportJob(out, state.num_frames, state.fps, shot.skeleton, clip, stem, formats, takes,
-                                    shot.capture)
+            subject = export_subject(state)
+            job = capture.ExportJob(out, subject.clip.num_frames, state.fps, state.shot.skeleton, subject.clip,
+                                    subject.stem, formats, subject.animations, state.shot.capture)
         except Exception as e:
             self._failed(out, claimed, e)
             return
         _, _, w, h = self._viewport_px()
         fbo = self.ctx.framebuffer([self.ctx.texture((w, h), 4)], self.ctx.depth_renderbuffer((w, h)))
-        self._job = (job, fbo, out, claimed)
+        self._job = (job, fbo, out, claimed, subject.place)
 
     def _step(self, budget_s: float) -> bool:
         """Render the export's next frames for about ``budget_s`` (the pose on screen is put
         back after); True when no export runs any more."""
-        job, fbo, out, claimed = self._job
+        job, fbo, out, claimed, place = self._job
         state, settings, keep = self.state, self.settings, self.settings.frame
 
         def render(f: int):
-            pose_at(state, float(f))
-            ball_at(state, float(f))
+            place(f)
             with capture.clean_render(settings.overlays) if settings.clean_video else nullcontext():
                 self._render_scene(fbo)
             return capture.read_rgb(fbo)
@@ -117,7 +112,7 @@ class Outputs:
         return done
 
     def _end(self) -> None:
-        _, fbo, _, _ = self._job
+        _, fbo, _, _, _ = self._job
         for a in (*fbo.color_attachments, fbo.depth_attachment):
             a.release()
         fbo.release()
@@ -128,3 +123,37 @@ class Outputs:
             capture.release(out)
         self.state.report(f"export: {type(e).__name__}: {e}")
         self.state.last_export = ExportNote(False, f"export to {out} failed: {e}")
+
+
+@dataclass(frozen=True)
+class ExportSubject:
+    clip: Clip                   # the motion written (cm, the rig's joints)
+    stem: str                    # file names
+    animations: list | None      # the glTF's (engine.gltf_export.Take: this one and the source, each with its ball)
+    place: Callable[[int], None]  # puts the viewport's pose and ball at a frame of it, for the rendered frames
+
+
+def export_subject(state) -> ExportSubject:
+    """What an export writes: the PC-pad take in the viewport (its clip, its ball, the source
+    beside it in the glTF), else the adapted shot (the source when nothing is adapted)."""
+    shot, take = state.shot, pcpad.shown_take(state)
+    if shot is None:
+        raise ValueError("no shot loaded")
+    if take is not None:
+        imp = take.impact
+        stem = capture.safe_stem(f"{shot.name}_{take.kind}_take")
+        animations = [take_animation(state.rig, shot, take.anim, "synthesised", stem, imp.hit_point, state.ball_start,
+                                     imp.hit_frame, imp.flight.path),
+                      take_animation(state.rig, shot, shot.clip, "source", f"{shot.name}_source", shot.hit_point,
+                                     state.ball_start)]
+        return ExportSubject(take.anim, stem, animations, lambda f: pcpad.pose_take_frame(state, take, f))
+    adapted = state.adaptation
+
+    def place(f: int) -> None:
+        pose_at(state, float(f))
+        ball_at(state, float(f))
+    if adapted is None:
+        return ExportSubject(shot.clip, shot.name, None, place)
+    clip = Clip(adapted.root_positions, adapted.local_rotations, shot.clip.fps)
+    return ExportSubject(clip, f"{shot.name}_adapted", shot_takes(state.rig, shot, clip, state.desired_hit_point,
+                                                                  state.ball_start, shot.hit_point), place)

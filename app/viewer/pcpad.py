@@ -472,6 +472,24 @@ def take_timeline(state) -> TakeTimeline | None:
     return TakeTimeline(pad.anim.num_frames, hit, frame, pad.playing)
 
 
+def shown_take(state) -> Take | None:
+    """The take in the viewport (playing or paused on a frame), else None."""
+    pad = state.pc_pad
+    if take_timeline(state) is None:
+        return None
+    takes = pad.shot_takes(state.shot.name)
+    return takes[pad.take] if 0 <= pad.take < len(takes) and takes[pad.take].anim is pad.anim else None
+
+
+def pose_take_frame(state, take: Take, frame: int) -> None:
+    """The viewport's pose and ball at ``frame`` of ``take`` (an export renders them)."""
+    g_rot, g_pos = take.anim_global
+    f = int(min(max(frame, 0), take.anim.num_frames - 1))
+    state.pose, state.pose_source = Pose(g_rot[f], g_pos[f]), "pc pad"
+    state.ball_position = None if take.impact is None else ball_in_take(take.impact, f)
+    state.shown_flight = None if take.impact is None else take.impact.flight.path
+
+
 def _export(state, pad, r):
     """The take shown as BVH in a new file of the working directory (never over an earlier one)."""
     out = write_new(".", f"hitpoint_synth_{safe_stem(state.shot.name)}_", ".bvh",

@@ -439,6 +439,47 @@ def test_viewer_export_writes_mp4_bvh_glb(app, rig, tmp_path):
     assert np.abs(got - adapted * METRES_PER_CM).max() < TOL_M
 
 
+def _export_now(app, out):
+    app.state.last_export = None
+    app.request_export(out)
+    for _ in range(2000):
+        app.frame(dt=1 / 60)
+        if app.state.last_export is not None and app.state.export_progress is None:
+            break
+    assert app.state.last_export.ok, app.state.last_export.line
+
+
+def test_viewer_export_writes_the_take_shown(app, rig, tmp_path):
+    """With a PC-pad take in the viewport the export is that take (what the user made and sees):
+    its frames in the BVH, the glTF's first animation the take (its hit frame in the extras, the
+    ball at the take's bat there) beside the source, the video as long as the take; back to
+    the shot, the adapted shot again."""
+    import imageio.v2 as iio2
+    from app.viewer import pcpad
+    app.requests.pad.append(pcpad.check_request("preset", "toned_down"))
+    app.frame(dt=1 / 60)
+    take = pcpad.shown_take(app.state)
+    assert take is not None
+    out = tmp_path / "take"
+    _export_now(app, out)
+    stem = f"{app.state.shot.name}_toned_down_take"
+    F = take.anim.num_frames
+    skel, clip = conform_to_rig(rig, *bvh.read(out / f"{stem}.bvh"), "export")
+    assert np.abs(clip_fk(skel, clip)[1] - take.anim_global[1]).max() < 1e-3
+    with iio2.get_reader(out / f"{stem}.mp4") as video:
+        assert video.count_frames() == F
+    f = GltfFile(out / f"{stem}.glb")
+    extras = [a.extras for a in f.gltf.animations]
+    assert [e["take"] for e in extras] == ["synthesised", "source"]
+    h = take.impact.hit_frame
+    assert extras[0]["hit_frame"] == h
+    got = f.joint_world_positions(np.array([h / clip.fps]), ["Bat", "Ball"])[0]
+    assert np.linalg.norm(got[0] - got[1]) * 100 < 0.5          # the ball at the take's bat at its hit
+    app.requests.pad.append(pcpad.check_request("back"))
+    app.frame(dt=1 / 60)
+    assert pcpad.shown_take(app.state) is None
+
+
 def test_viewer_export_that_fails_leaves_nothing(app, tmp_path, monkeypatch):
     calls = []
     render = app.outputs._render_scene
