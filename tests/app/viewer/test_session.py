@@ -68,7 +68,8 @@ def test_session_round_trip_through_two_viewers(tmp_path):
         assert [len(pad.shot_takes(n)) for n in (first, second)] == [2, 1], pad.takes.keys()
         s.falloff, s.solver, s.overlays.flight, s.overlays.ghost, s.speed = 77.0, "dls", False, "skeleton", 0.5
         app.camera.yaw, app.camera.distance, app.camera.pivot = 25.0, 420.0, np.array([10.0, 80.0, -20.0])
-        pad.amount, pad.plant_feet = 0.25, False
+        pad.amount, pad.plant_feet, pad.detail = 0.25, False, False
+        pad.shot_takes(first)[0].detail = False
         run(app, 1)
         saved_takes = {n: [(t.kind, t.points.copy(), None if t.times is None else t.times.copy())
                            for t in pad.shot_takes(n)] for n in (first, second)}
@@ -86,7 +87,8 @@ def test_session_round_trip_through_two_viewers(tmp_path):
         assert np.array_equal(s.target, target)
         c = app.camera
         assert (c.yaw, c.distance, c.pivot.tolist()) == (25.0, 420.0, [10.0, 80.0, -20.0])
-        assert (pad.amount, pad.plant_feet, pad.mode) == (0.25, False, "draw")
+        assert (pad.amount, pad.plant_feet, pad.detail, pad.mode) == (0.25, False, False, "draw")
+        assert [t.detail for t in pad.shot_takes(first)] == [False, True]
         for name, takes in saved_takes.items():
             got = pad.shot_takes(name)
             assert len(got) == len(takes)
