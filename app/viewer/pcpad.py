@@ -75,7 +75,12 @@ class Take:
     def label(self, index: int) -> str:
         extra = (f" {self.amount:.2f}" if self.kind in PRESET_LABELS else
                  f", {self.times[-1]:.1f} s" if self.times is not None else "")
-        return f"{index + 1}. {PRESET_LABELS.get(self.kind, self.kind)}{extra}"
+        return f"{index + 1}. {self.name}{extra}"
+
+    @property
+    def name(self) -> str:
+        """What the take is, said to the user."""
+        return "shot's own path" if self.kind == SOURCE and self.detail else PRESET_LABELS.get(self.kind, self.kind)
 
 
 @dataclass
@@ -231,7 +236,8 @@ def apply_preset(state, preset: str | None = None, amount: float | None = None,
 
 
 def play_source_path(state) -> None:
-    """Animate the shot's own 2-PC path (what the pad's two PCs alone give)."""
+    """Animate the shot's own path (with the source's detail the shot itself; without, what the
+    pad's two PCs alone give)."""
     pad = sync(state)
     if pad is not None:
         _make_animation(state, pad.guide, None, SOURCE)
@@ -303,7 +309,7 @@ def show_take(state, index: int) -> None:
     pad.anim, pad.anim_global, pad.path, pad.path_kind = take.anim, take.anim_global, take.path, take.kind
     pad.impact = take.impact
     pad.playing, pad.live, pad.play_time = True, False, 0.0
-    pad.info = f"{PRESET_LABELS.get(take.kind, take.kind)}: {take.anim.num_frames} frames{take.note}"
+    pad.info = f"{take.name}: {take.anim.num_frames} frames{take.note}"
     advance(pad, 0.0)
 
 
