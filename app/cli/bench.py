@@ -111,8 +111,25 @@ def run_bench(reps: int = 200) -> dict:
     grot, gpos = shot.fk
     bind = bind_positions(rig.skeleton)
     res["skinning_one_frame_us"] = _stats(_time(lambda: skinning_matrices(grot[h], gpos[h], bind), reps), 1e6)
+    res["synthesised_take_ms"] = _take_figures(rig, shot, max(reps // 10, 10))
     res.update(_left_arm_vs_ikpy(rig, shot, targets, reps))
     return res
+
+
+def _take_figures(rig, shot, reps: int) -> dict:
+    """A PC-pad take (what a click on a preset waits for): the exaggerated preset (0.4) synthesised
+    with the source's detail and cleaned up (hand, feet, the bat to the hit point with the face)."""
+    from engine import cleanup, synth, synth_detail
+    from engine import pca as pcam
+    space = pcam.fit_clip(rig, shot.clip, "body")
+    sections = synth.shot_sections(shot.fk[1][:, rig.bat_joint], shot.hit_frame)
+    path = synth.preset_path(synth.source_path(space), "exaggerated", 0.4, sections)
+
+    def take():
+        anim = synth.synthesise(space, path, frames=shot.num_frames,
+                                detail=synth_detail.source_detail(space, path, "time"))
+        cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, source_hit_frame=shot.hit_frame)
+    return {**_stats(_time(take, reps), 1e3), "preset": "exaggerated 0.4, source detail, full clean-up"}
 
 
 def _left_arm_vs_ikpy(rig, shot, targets: np.ndarray, reps: int) -> dict:
@@ -183,7 +200,8 @@ def register(cli: typer.Typer) -> None:
         """Engine timings: one frame adapted (both arms), a whole shot, the four solvers
         side by side (ccd, dls, learnt, learnt+ccd: us a frame, bat and grip error, limit
         hits, style RMSE, face angle; medians over shots), skinning matrices for one
-        frame, and ikpy on the same left-arm chain (median, p95)."""
+        frame, a synthesised take (a PC-pad preset made and cleaned up), and ikpy on the
+        same left-arm chain (median, p95)."""
         reps = number("--reps", reps, MIN_REPS, MAX_REPS, integer=True)
         res = run_bench(reps)
         if as_json:

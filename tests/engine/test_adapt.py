@@ -329,7 +329,8 @@ def test_cli_bench_json():
                        timeout=300)
     assert r.returncode == 0, r.stderr
     res = json.loads(r.stdout)
-    for key in ("one_frame_both_arms_us", "whole_shot_ms", "skinning_one_frame_us", "ours_left_arm_us"):
+    for key in ("one_frame_both_arms_us", "whole_shot_ms", "skinning_one_frame_us", "ours_left_arm_us",
+                "synthesised_take_ms"):
         assert res[key]["median"] > 0 and res[key]["p95"] >= res[key]["median"]
     if res.get("ikpy_left_arm_ms"):
         assert res["ikpy_over_ours"] > 0
