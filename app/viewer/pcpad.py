@@ -478,6 +478,17 @@ def take_timeline(state) -> TakeTimeline | None:
     return TakeTimeline(pad.anim.num_frames, hit, frame, pad.playing)
 
 
+def _detail(state, pad, r):
+    """The source-detail box: the marker's pose or the take shown made again with it or without
+    (a take of the other kind is another take: both stay to compare)."""
+    pad.detail = bool(r.value)
+    take = shown_take(state)
+    if take is not None and take.detail != pad.detail:
+        _make_animation(state, take.points, take.times, take.kind)
+    elif pad.live and pad.marker is not None:
+        pad.pose = pose_at_scores(state, pad.marker)
+
+
 def shown_take(state) -> Take | None:
     """The take in the viewport (playing or paused on a frame), else None."""
     pad = state.pc_pad
@@ -518,7 +529,7 @@ PAD_ACTIONS = {
     "seek": (_seek, "frame"),
     "export": (_export, None), "mode": (_option("mode"), PAD_MODES), "amount": (_option("amount"), float),
     "fix_hand": (_option("fix_hand"), bool), "plant_feet": (_option("plant_feet"), bool),
-    "detail": (_option("detail"), bool),
+    "detail": (_detail, bool),
     "loop": (_option("loop"), bool),
 }
 

@@ -51,6 +51,21 @@ def test_marker_sets_the_pose_of_those_scores(state, rig):
     assert pcpad.active_pose(state) is None
 
 
+def test_the_source_detail_box_remakes_the_take_shown(state, rig):
+    """Unticking "source detail" with a take shown makes it again with the first two PCs alone
+    (another take: both stay, to compare); ticking it again shows the first one."""
+    pcpad.apply_preset(state, "exaggerated", 0.4)
+    pad = state.pc_pad
+    first = pcpad.shown_take(state)
+    assert first.detail
+    pcpad.step(state, [pcpad.check_request("detail", False)], 0.0)
+    second = pcpad.shown_take(state)
+    assert second is not first and not second.detail and second.kind == first.kind
+    assert not np.allclose(second.anim.local_rotations, first.anim.local_rotations)
+    pcpad.step(state, [pcpad.check_request("detail", True)], 0.0)
+    assert pcpad.shown_take(state) is first and len(pad.shot_takes(state.shot.name)) == 2
+
+
 def test_an_aborted_take_leaves_the_ball(state, rig):
     """An aborted take (leaving the path before the hit, dissertation 3.2.3) plays no ball: the
     ball passes the shot's hit point untouched and goes on toward the keeper; the panel says the
