@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import bvh, quat
+from .capture_facing import choose_facing, turn_clip
 from .hitframe import HitFrame, find_hit_frame, motion_start
 from .library import Shot
 from .profiles import Profile, ProfileError, detect, load_profile, resolve
@@ -45,6 +46,8 @@ class Capture:
     hit: HitFrame
     appended: bool               # an implement joint was appended (dropped on writing)
     first_frame: int = 0         # frames before it (a conversion's T-pose) hold the motion's first pose
+    facing_deg: int = 0          # turned this much about the vertical to face the ball (engine.capture_facing)
+    pivot: np.ndarray | None = None   # (3,) cm: the vertical it turned about
 
     @property
     def lead_hand(self) -> int:
@@ -75,8 +78,11 @@ class Capture:
     def to_file(self, local_rotations: np.ndarray, root_positions: np.ndarray) -> tuple[Skeleton, Clip]:
         """An engine result (cm, rig joints) as a take on the file's own skeleton and units."""
         J = self.file_skeleton.num_joints
-        clip = Clip(root_positions / self.scale, np.array(local_rotations[:, :J], copy=True), self.file_clip.fps,
+        clip = Clip(np.array(root_positions, float), np.array(local_rotations[:, :J], copy=True), self.file_clip.fps,
                     None if self.file_clip.local_positions is None else self.file_clip.local_positions.copy())
+        if self.facing_deg:                 # back to the capture's own frame
+            turn_clip(clip, -self.facing_deg, self.pivot)
+        clip.root_positions = clip.root_positions / self.scale
         if clip.local_positions is not None:
             clip.local_positions[:, 0] = clip.root_positions
         f, src = self.first_frame, self.file_clip
@@ -192,12 +198,13 @@ def build_rig(profile: Profile, roles: dict, skel: Skeleton, effector: int) -> R
 
 
 def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: int | str = "auto",
-                 handedness: str | None = None, scale: float | None = None) -> Capture:
+                 handedness: str | None = None, scale: float | None = None, facing: int | str = "auto") -> Capture:
     """Read a BVH capture and make it ready for the engine (see the module's doc).
 
     ``profile``: a bundled name, a JSON path, a Profile or "auto"; ``hit_frame``:
     a frame number or "auto"; ``handedness`` overrides the profile's ("left":
-    the right hand leads); ``scale`` overrides its units (cm per file unit).
+    the right hand leads); ``scale`` overrides its units (cm per file unit); ``facing``: the
+    turn about the vertical (deg, a multiple of 90) or "auto" (engine.capture_facing).
     Raises ProfileError / BvhError / ValueError with one-line messages."""
     path = Path(path)
     file_skel, file_clip = bvh.read(path)
@@ -240,10 +247,28 @@ def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: i
         rig.bat["held"] = bool(np.linalg.norm(span) <= HELD_SPAN_CM)
     if "face_normal" not in rig.bat:
         rig.bat["face_normal"] = _leading_side(rig, clip, grot, gpos, hit.frame).tolist()
+    turn, pivot = _facing(rig, skel, clip, hit.frame, facing)
     shot = Shot(path.stem, path.name, hit.frame, f"{prof.name} capture", skel, clip, effector)
-    cap = Capture(path, prof, roles, cm, file_skel, file_clip, rig, shot, hit, appended, first)
+    cap = Capture(path, prof, roles, cm, file_skel, file_clip, rig, shot, hit, appended, first, turn, pivot)
     shot.capture = cap
     return cap
+
+
+def _facing(rig: Rig, skel: Skeleton, clip: Clip, h: int, facing) -> tuple[int, np.ndarray]:
+    """Turn ``clip`` in place to face the ball (engine.capture_facing); (the turn in deg, the
+    pivot (3,) cm: the hips over the ground at the hit)."""
+    grot, gpos = clip_fk(skel, Clip(clip.root_positions[h:h + 1], clip.local_rotations[h:h + 1], clip.fps))
+    pivot = np.array([gpos[0, 0, 0], 0.0, gpos[0, 0, 2]])
+    if facing == "auto":
+        if not rig.bat.get("held", True):
+            return 0, pivot
+        normal = quat.rotate(grot[0, rig.bat_joint], np.asarray(rig.bat["face_normal"], float))
+        facing = choose_facing(normal, gpos[0, rig.bat_joint], pivot)
+    if not isinstance(facing, (int, np.integer)) or isinstance(facing, bool) or int(facing) % 90:
+        raise ProfileError(f"facing must be auto or a multiple of 90 degrees, got {facing!r}")
+    turn = int(facing) % 360
+    turn_clip(clip, turn, pivot)
+    return turn, pivot
 
 
 def _hold_first_pose(clip: Clip, first: int) -> None:

@@ -130,7 +130,8 @@ def init_library(folder: str | Path, profile: str = "auto", hit_frame: int | str
             raise LibraryError(folder, text if f.name in text else f"{f.name}: {text}") from None
     _one_rig(captures, str(out))
     entries = [{"name": c.path.stem[:64], "file": c.path.name, "hit_frame": c.hit.frame,
-                "description": f"{c.profile.name} capture; hit frame: {c.hit.method}",
+                "description": f"{c.profile.name} capture; hit frame: {c.hit.method}"
+                               + (f"; turned {c.facing_deg} deg to face the ball" if c.facing_deg else ""),
                 "profile": c.profile.name} for c in captures]
     atomic.write_text(out, json.dumps(entries, indent=1) + "\n")
     return out, entries

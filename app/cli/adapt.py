@@ -144,6 +144,7 @@ def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset,
         f"{cap.profile.implement.get('hit_point', 'hands_midpoint')} of "
         f"{rig.skeleton.names[cap.lead_hand]} and {rig.skeleton.names[cap.trail_hand]}",
         "lead_hand": rig.skeleton.names[cap.lead_hand],
+        "facing_deg": cap.facing_deg,
         "source_hit_point": r(source), "desired_hit_point": r(a.desired_hit_point),
         "offset": r(a.desired_hit_point - source),
         "bat_error_cm": round(a.bat_error_cm, 6),

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from tests import capture_kit as kit
-from engine import bvh, profiles
+from engine import bvh, profiles, quat
 from engine.adapt import Adapter
 from engine.capture import load_capture
 
@@ -71,12 +71,39 @@ def test_the_conversion_s_t_pose_holds_the_first_pose_and_goes_back_on_writing(t
     _, out = cap.to_file(clip.local_rotations, clip.root_positions)
     assert np.array_equal(out.local_rotations[0], cap.file_clip.local_rotations[0])
     assert np.allclose(out.root_positions[0], cap.file_clip.root_positions[0])
-    assert np.allclose(out.local_rotations[1:], clip.local_rotations[1:, :cap.file_skeleton.num_joints])
+    J = cap.file_skeleton.num_joints
+    assert np.allclose(out.local_rotations[1:, 1:], clip.local_rotations[1:, 1:J])
+    # the root back in the file's own frame (the engine turned the golfer 180 deg to face the ball)
+    assert cap.facing_deg == 180
+    assert np.all(quat.angle_between(out.local_rotations[1:, 0], cap.file_clip.local_rotations[1:, 0]) < 1e-6)
     path = tmp_path / "back.bvh"
     cap.write(path, clip.local_rotations, clip.root_positions)
     back_skel, back = bvh.read(path)
     assert back.num_frames == 494
     assert np.max(np.abs(back.local_rotations[0] - cap.file_clip.local_rotations[0])) < 1e-6
+
+
+def test_a_capture_facing_away_from_the_ball_is_turned_to_face_it(tmp_path):
+    """The CMU golfer swings away from the bowler's end: his implement met the bowled ball with
+    its back (face . toward-ball -0.49). He is turned 180 deg about his hips (a studio's axes
+    differ by multiples of 90 deg) and meets it with the face; the walk holds nothing and stays
+    as recorded; an explicit facing is kept and written back exactly; a bad one is refused."""
+    from engine import face
+    from engine.choice import BALL_START
+    cap = load_capture(kit.GOLF)
+    assert cap.facing_deg == 180
+    g_rot, g_pos = cap.shot.fk
+    h, bat = cap.shot.hit_frame, cap.rig.bat_joint
+    normal = quat.rotate(g_rot[h, bat], np.asarray(cap.rig.bat["face_normal"], float))
+    assert face.face_to_ball(normal, BALL_START, g_pos[h, bat]) >= face.EDGE_COS
+    assert load_capture(kit.MOCAP / "cmu_02_01_walk.bvh").facing_deg == 0
+    asked = load_capture(kit.GOLF, facing=90)
+    assert asked.facing_deg == 90
+    _, out = asked.to_file(asked.shot.clip.local_rotations, asked.shot.clip.root_positions)
+    np.testing.assert_allclose(out.root_positions[1:], asked.file_clip.root_positions[1:], atol=1e-9)
+    assert np.all(quat.angle_between(out.local_rotations[1:, 0], asked.file_clip.local_rotations[1:, 0]) < 1e-6)
+    with pytest.raises(profiles.ProfileError, match="multiple of 90"):
+        load_capture(kit.GOLF, facing=45)
 
 
 def _file_hands(b, lead="LeftHand", trail="RightHand", unit=1.0):
@@ -96,6 +123,8 @@ def _columns(b, names):
 
 
 def test_cmu_golf_adapted_by_an_offset_comes_back_on_its_skeleton(tmp_path):
+    """The offset is on the pitch: the golfer, turned 180 deg to face the ball, moves his hands by it
+    turned back in the file's frame."""
     out = tmp_path / "golf_adapted.bvh"
     offset = np.array([12.0, -6.0, 9.0])
     r = run("adapt", "--bvh", kit.GOLF, "--offset", *offset, "--out", out)
@@ -111,7 +140,8 @@ def test_cmu_golf_adapted_by_an_offset_comes_back_on_its_skeleton(tmp_path):
     h = summary["hit_frame"]
     mid0, dist0 = _file_hands(src, unit=CMU_UNIT)
     mid1, dist1 = _file_hands(res, unit=CMU_UNIT)
-    assert np.linalg.norm(mid1[h] - mid0[h] - offset) < 1.0
+    assert summary["facing_deg"] == 180
+    assert np.linalg.norm(mid1[h] - mid0[h] - offset * [-1, 1, -1]) < 1.0
     assert np.abs(dist1 - dist0).max() < 0.5          # the trail hand stays on the grip
     legs = [n for n in src["names"] if "Leg" in n or "Foot" in n or "Toe" in n or "Hip" in n]
     cols = _columns(src, legs)
