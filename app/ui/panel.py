@@ -267,7 +267,11 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
         if c:
             rows += [(f"ghost: {c['solver']}", f"{c['us_per_frame']:.1f} us a frame"),
                      ("ghost bat / grip", f"{c['bat_error_cm']:.2f} / {c['max_grip_error_cm']:.2f} cm")]
-        if state.desired_hit_point is not None:
+        take = pcpad.shown_take(state)
+        if take is not None and take.impact is not None:     # the take's ball, not the adapted shot's
+            d = take.impact.hit_point
+            rows.append(("take's hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))
+        elif state.desired_hit_point is not None:
             d = state.desired_hit_point
             rows.append(("desired hit point", f"{d[0]:.1f}, {d[1]:.1f}, {d[2]:.1f}"))
         if state.shown_impact is not None:
