@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import bvh, quat
-from .capture_facing import choose_facing, turn_clip
+from .capture_facing import check_facing, choose_facing, turn_clip
 from .hitframe import HitFrame, find_hit_frame, motion_start
 from .library import Shot
 from .profiles import Profile, ProfileError, detect, load_profile, resolve
@@ -204,7 +204,7 @@ def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: i
     ``profile``: a bundled name, a JSON path, a Profile or "auto"; ``hit_frame``:
     a frame number or "auto"; ``handedness`` overrides the profile's ("left":
     the right hand leads); ``scale`` overrides its units (cm per file unit); ``facing``: the
-    turn about the vertical (deg, a multiple of 90) or "auto" (engine.capture_facing).
+    turn about the vertical (deg: 0, 90, 180 or 270) or "auto" (engine.capture_facing).
     Raises ProfileError / BvhError / ValueError with one-line messages."""
     path = Path(path)
     file_skel, file_clip = bvh.read(path)
@@ -264,9 +264,10 @@ def _facing(rig: Rig, skel: Skeleton, clip: Clip, h: int, facing) -> tuple[int, 
             return 0, pivot
         normal = quat.rotate(grot[0, rig.bat_joint], np.asarray(rig.bat["face_normal"], float))
         facing = choose_facing(normal, gpos[0, rig.bat_joint], pivot)
-    if not isinstance(facing, (int, np.integer)) or isinstance(facing, bool) or int(facing) % 90:
-        raise ProfileError(f"facing must be auto or a multiple of 90 degrees, got {facing!r}")
-    turn = int(facing) % 360
+    try:
+        turn = check_facing(facing)
+    except ValueError as e:
+        raise ProfileError(str(e)) from None
     turn_clip(clip, turn, pivot)
     return turn, pivot
 

@@ -17,6 +17,20 @@ from .choice import BALL_START
 from .skeleton import Clip
 
 FACINGS_DEG = (0, 90, 180, 270)
+
+
+def check_facing(value) -> int | str:
+    """``value`` as a facing: "auto" or one of FACINGS_DEG (an int, or text of one); else ValueError."""
+    if value == "auto":
+        return "auto"
+    try:
+        deg = int(value) if not isinstance(value, (bool, float)) else None
+    except (TypeError, ValueError):
+        deg = None
+    if deg not in FACINGS_DEG:
+        raise ValueError(f"facing must be auto or one of {', '.join(map(str, FACINGS_DEG))} (degrees), "
+                         f"got {str(value)[:40]!r}")
+    return deg
 UP = np.array([0.0, 1.0, 0.0])
 
 

@@ -143,6 +143,7 @@ class ManifestEntry:
     description: str
     path: Path
     profile: str | None = None       # a rig profile (engine.profiles) for a capture on its own skeleton
+    facing: int | str = "auto"       # a capture's turn to face the ball (engine.capture_facing)
 
 
 def _check_text(manifest: Path, i: int, e: dict, key: str, limit: int) -> str:
@@ -171,11 +172,15 @@ def _check_entry(manifest: Path, i: int, e) -> ManifestEntry:
     if type(hit) is not int or hit < 0:
         raise LibraryError(manifest, f"'hit_frame' must be a frame number (an integer >= 0), found "
                            f"{bvh.quoted(json.dumps(hit)) if type(hit) is int else _kind(hit)}", i)
+    facing = e.get("facing", "auto")
+    if facing != "auto" and (type(facing) is not int or facing % 90 or not 0 <= facing < 360):
+        raise LibraryError(manifest, f"'facing' must be \"auto\" or 0, 90, 180 or 270 (degrees), found "
+                           f"{bvh.quoted(json.dumps(facing)) if type(facing) is int else _kind(facing)}", i)
     path = manifest.parent / file
     if not path.is_file():
         raise LibraryError(manifest, f"file {bvh.quoted(file)} not found (expected a BVH file, "
                            "relative to the manifest's folder)", i)
-    return ManifestEntry(name, file, hit, description, path, profile)
+    return ManifestEntry(name, file, hit, description, path, profile, facing)
 
 
 def read_manifest(manifest: Path) -> list[ManifestEntry]:

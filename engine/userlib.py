@@ -73,7 +73,7 @@ def load_user_library(library: str | Path) -> tuple[Rig, list[Shot], list[Captur
             raise LibraryError(manifest, "no 'profile' (a library of captures names each shot's rig profile; "
                                "hitpoint library init writes it)", i)
         try:
-            c = load_capture(e.path, e.profile, e.hit_frame)
+            c = load_capture(e.path, e.profile, e.hit_frame, facing=e.facing)
         except ValueError as err:
             raise LibraryError(manifest, f"{e.file}: {err}", i) from None
         c.shot = replace(c.shot, name=e.name, description=e.description or c.shot.description)
@@ -105,7 +105,7 @@ def load_shots(library: str | Path | None = None) -> tuple[Rig, list[Shot]]:
 
 
 def init_library(folder: str | Path, profile: str = "auto", hit_frame: int | str = "auto",
-                 force: bool = False) -> tuple[Path, list[dict]]:
+                 force: bool = False, facing: int | str = "auto") -> tuple[Path, list[dict]]:
     """Write ``folder/library.json`` for the folder's BVH files; returns it and its entries.
 
     Every file must read and fit the profile, and all must share one skeleton;
@@ -124,7 +124,7 @@ def init_library(folder: str | Path, profile: str = "auto", hit_frame: int | str
     captures = []
     for f in files:
         try:
-            captures.append(load_capture(f, profile, hit_frame))
+            captures.append(load_capture(f, profile, hit_frame, facing=facing))
         except (ValueError, bvh.BvhError) as err:
             text = str(err)
             raise LibraryError(folder, text if f.name in text else f"{f.name}: {text}") from None
@@ -132,6 +132,6 @@ def init_library(folder: str | Path, profile: str = "auto", hit_frame: int | str
     entries = [{"name": c.path.stem[:64], "file": c.path.name, "hit_frame": c.hit.frame,
                 "description": f"{c.profile.name} capture; hit frame: {c.hit.method}"
                                + (f"; turned {c.facing_deg} deg to face the ball" if c.facing_deg else ""),
-                "profile": c.profile.name} for c in captures]
+                "profile": c.profile.name, "facing": c.facing_deg} for c in captures]
     atomic.write_text(out, json.dumps(entries, indent=1) + "\n")
     return out, entries

@@ -25,7 +25,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
               twist="follow", direction=None, elevation=None, out: Optional[Path] = None, bvh=None,
               profile="auto",
               hit_frame="auto", handed=None, scale=None, offset=None, library=None,
-              csv_rotations="euler", leave_out=False) -> dict:
+              csv_rotations="euler", leave_out=False, facing="auto") -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
     from engine.adapt import Adapter, AdaptSettings  # numba (0.25 s): when the command runs
     from engine.learnt_solver import LEARNT_SOLVERS, LearntSolver, check
@@ -44,9 +44,12 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     if bvh is not None:
         if target is not None or shot_name is not None or library is not None:
             raise UserError("--bvh adapts one capture: give --offset or --hit, not --target, --shot or --library")
-        return run_capture(Path(bvh), settings, profile, hit_frame, handed, scale, offset, hit, out, leave_out)
+        return run_capture(Path(bvh), settings, profile, hit_frame, handed, scale, offset, hit, out, leave_out,
+                           facing)
     if offset is not None:
         raise UserError("--offset goes with --bvh FILE (with --shot, give --hit X Y Z)")
+    if facing != "auto":
+        raise UserError("--facing goes with --bvh FILE (a library's captures: hitpoint library init --facing)")
     rig, shots = load_shots(library)
     shot, desired = _pick_shot(shots, target, shot_name, hit)
     adapter = Adapter(rig, shot)
@@ -113,7 +116,7 @@ def _summary(rig, shot, a, target, aimed) -> dict:
 
 
 def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset, hit, out,
-                leave_out=False) -> dict:
+                leave_out=False, facing="auto") -> dict:
     """``adapt --bvh``: a capture on its own skeleton, moved by ``offset`` (or to ``hit``) at its
     hit frame, written back on its own skeleton and units (a learnt solver learns from it)."""
     from engine.adapt import Adapter
@@ -122,7 +125,7 @@ def run_capture(path: Path, settings, profile, hit_frame, handed, scale, offset,
 
     if (offset is None) == (hit is None):
         raise UserError("--bvh needs --offset DX DY DZ or --hit X Y Z (cm), one of them")
-    cap = load_capture(path, profile, hit_frame, handed, scale)
+    cap = load_capture(path, profile, hit_frame, handed, scale, facing)
     source = cap.shot.hit_point
     desired = source + np.asarray(offset, float) if offset is not None else np.asarray(hit, float)
     adapter = Adapter(cap.rig, cap.shot)
@@ -208,7 +211,7 @@ def _write(out: Path, rig, shot, a, csv_rotations: str = "euler") -> None:
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
           "--solver": 1, "--twist": 1, "--direction": 1, "--elevation": 1, "--out": 1, "--bvh": 1, "--profile": 1,
           "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1,
-          "--csv-rotations": 1, "--leave-out": 0}
+          "--csv-rotations": 1, "--leave-out": 0, "--facing": 1}
 CSV_ROTATIONS = ("euler", "quaternion")
 MAX_SCALE = 1e4        # cm per file unit: beyond a kilometre a unit is a mistake
 
@@ -290,6 +293,12 @@ def capture_args(got: dict) -> dict:
             raise UserError(f"--handed must be right or left, got {shorten(out['handed'])!r}")
     if "--scale" in got:
         out["scale"] = number("--scale", got["--scale"][0], 1.0 / MAX_SCALE, MAX_SCALE)
+    if "--facing" in got:
+        from engine.capture_facing import check_facing
+        try:
+            out["facing"] = check_facing(got["--facing"][0])
+        except ValueError as e:
+            raise UserError(f"--facing: {e}") from None
     if "--offset" in got:
         out["offset"] = position("--offset", got["--offset"])
     if "--csv-rotations" in got:
@@ -335,7 +344,9 @@ def register(cli: typer.Typer) -> None:
           --csv-rotations euler|quaternion   the CSV's rotation columns
           --bvh FILE --offset DX DY DZ | --hit X Y Z   your own capture, on its
                               own skeleton (--profile NAME|auto, --hit-frame
-                              N|auto, --handed right|left, --scale CM_PER_UNIT)
+                              N|auto, --handed right|left, --scale CM_PER_UNIT,
+                              --facing auto|0|90|180|270: its turn to meet
+                              the ball; offsets and points are on the pitch)
           --library DIR       shots from your own library (hitpoint library init)
         JSON keys: shot, hit_frame, source_hit_point, desired_hit_point,
         bat_error_cm, blend (per frame), grip_error_cm, grip_error_deg,

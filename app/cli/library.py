@@ -22,14 +22,21 @@ def register(cli: typer.Typer) -> None:
              hit_frame: str = typer.Option("auto", "--hit-frame", help="Hit frame of every file, or auto "
                                            "(found per file: see the description it writes)."),
              force: bool = typer.Option(False, "--force", help="Write library.json again if it exists."),
+             facing: str = typer.Option("auto", "--facing", help="Turn every capture about the vertical by 0, 90, "
+                                        "180 or 270 deg, or auto (each one turned to meet the ball with its face)."),
              as_json: bool = typer.Option(False, "--json", help="Print the entries as JSON.")):
         """Write FOLDER/library.json: each BVH file's name, hit frame (found or given),
         profile and a description. Every file must read and share one skeleton."""
+        from engine.capture_facing import check_facing
         from engine.userlib import init_library
         if not folder.is_dir():
             raise UserError(f"{folder}: not a folder")
         hf = hit_frame if hit_frame == "auto" else number("--hit-frame", hit_frame, 0, None, integer=True)
-        out, entries = init_library(folder, profile, hf, force)
+        try:
+            turn = check_facing(facing)
+        except ValueError as e:
+            raise UserError(f"--facing: {e}") from None
+        out, entries = init_library(folder, profile, hf, force, turn)
         if as_json:
             print(json.dumps(entries, indent=1))
             return

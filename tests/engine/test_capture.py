@@ -102,8 +102,24 @@ def test_a_capture_facing_away_from_the_ball_is_turned_to_face_it(tmp_path):
     _, out = asked.to_file(asked.shot.clip.local_rotations, asked.shot.clip.root_positions)
     np.testing.assert_allclose(out.root_positions[1:], asked.file_clip.root_positions[1:], atol=1e-9)
     assert np.all(quat.angle_between(out.local_rotations[1:, 0], asked.file_clip.local_rotations[1:, 0]) < 1e-6)
-    with pytest.raises(profiles.ProfileError, match="multiple of 90"):
+    with pytest.raises(profiles.ProfileError, match="facing must be"):
         load_capture(kit.GOLF, facing=45)
+    # the CLI and a library: --facing as asked, written into library.json, refused when wrong
+    r = run("adapt", "--bvh", kit.GOLF, "--offset", 0, 0, 0, "--facing", 90)
+    assert r.returncode == 0 and json.loads(r.stdout)["facing_deg"] == 90, r.stderr
+    refused(run("adapt", "--bvh", kit.GOLF, "--offset", 0, 0, 0, "--facing", 45), "--facing")
+    refused(run("adapt", "--shot", "pull", "--hit", 0, 100, 150, "--facing", 90), "--facing goes with --bvh")
+    (tmp_path / "golf.bvh").write_bytes(kit.GOLF.read_bytes())
+    r = run("library", "init", tmp_path, "--json")
+    assert r.returncode == 0 and json.loads(r.stdout)[0]["facing"] == 180, r.stderr
+    r = run("library", "init", tmp_path, "--json", "--force", "--facing", "0")
+    assert r.returncode == 0 and json.loads(r.stdout)[0]["facing"] == 0, r.stderr
+    refused(run("library", "init", tmp_path, "--force", "--facing", "sideways"), "--facing")
+    manifest = tmp_path / "library.json"
+    entries = json.loads(manifest.read_text())
+    entries[0]["facing"] = 45
+    manifest.write_text(json.dumps(entries))
+    refused(run("shots", "--library", tmp_path), "'facing' must be")
 
 
 def _file_hands(b, lead="LeftHand", trail="RightHand", unit=1.0):
