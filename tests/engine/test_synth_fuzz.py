@@ -240,3 +240,21 @@ def test_cli_refuses_bad_paths_with_one_line(tmp_path, content):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and str(path) in lines[0], r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["path.json"]      # no output, no temp file
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 5), st.integers(1, 6), st.integers(0, 10_000))
+def test_the_alignment_is_the_cheapest_forward_map(frames, guide_frames, seed):
+    """engine.synth_detail.align_to_guide against every non-decreasing map of a few frames: never
+    going back, and no map is cheaper (summed squared distance of the scores)."""
+    import itertools
+    from engine.synth_detail import align_to_guide
+    rng = np.random.default_rng(seed)
+    scores, guide = rng.normal(size=(frames, 2)), rng.normal(size=(guide_frames, 2))
+    m = align_to_guide(scores, guide)
+    assert m.shape == (frames,) and np.all(np.diff(m) >= 0) and m.min() >= 0 and m.max() < guide_frames
+
+    def cost(mm):
+        return float(np.sum((scores - guide[list(mm)]) ** 2))
+    best = min(cost(mm) for mm in itertools.combinations_with_replacement(range(guide_frames), frames))
+    assert cost(m) <= best + 1e-9
