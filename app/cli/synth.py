@@ -29,8 +29,11 @@ def register(cli: typer.Typer) -> None:
         fix_hand: bool = typer.Option(True, "--fix-hand/--no-fix-hand", help="Re-attach the right hand to the bat."),
         plant_feet: bool = typer.Option(True, "--plant-feet/--no-plant-feet", help="Keep the source's planted feet planted."),
         keep_face: bool = typer.Option(True, "--keep-face/--free-face", help="Turn the bat's face at the hit back to the source's."),
-        meet: bool = typer.Option(True, "--meet/--no-meet", help="With the face kept: bring the bat to the shot's hit point at the take's hit frame."),
-        detail: bool = typer.Option(True, "--detail/--two-pcs", help="The PCs after the first two from the source shot (at the same time for a preset, along the path for a drawn one); --two-pcs: the first two alone."),
+        meet: bool = typer.Option(True, "--meet/--no-meet", help="With the face kept: bring the bat to the "
+                                  "shot's hit point at the take's hit frame."),
+        detail: bool = typer.Option(True, "--detail/--two-pcs", help="The PCs after the first two from the source "
+                                    "shot (at the same time for a preset, along the path for a drawn one); "
+                                    "--two-pcs: the first two alone."),
         fps: float = typer.Option(None, "--fps", help="Frame rate when the path has timestamps (default: the shot's)."),
         library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
     ):

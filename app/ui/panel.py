@@ -366,8 +366,9 @@ def _capture_section(settings: ViewerSettings, state: AppState, requests: Reques
     if imgui.button("Export take###export" if take else "Export shot###export"):
         requests.export = True
     if imgui.is_item_hovered():
-        imgui.set_tooltip(f"A new folder in the working directory: {'the PC-pad take shown' if take else 'the adapted shot'}"
-                          " as\nmp4 + PNG frames (viewport size), BVH and glTF (.glb, metres)")
+        what = "the PC-pad take shown" if take else "the adapted shot"
+        imgui.set_tooltip(f"A new folder in the working directory: {what} as\n"
+                          "mp4 + PNG frames (viewport size), BVH and glTF (.glb, metres)")
     imgui.same_line()
     changed, clean = imgui.checkbox("clean video", settings.clean_video)
     if changed:

@@ -58,7 +58,7 @@ class Take:
     amount: float = 0.4                   # the preset's amount (presets only)
     fix_hand: bool = True
     plant_feet: bool = True
-    detail: bool = True                   # the PCs after the first two from the source (engine.synth_detail.source_detail)
+    detail: bool = True                   # the PCs after the first two from the source (engine.synth_detail)
     anim: object = None                   # engine.skeleton.Clip, made when first shown
     anim_global: tuple | None = None
     path: np.ndarray | None = None        # (F, 2) the points resampled to the clip's frames
@@ -67,8 +67,8 @@ class Take:
 
     def same_recipe(self, other: "Take") -> bool:
         return (self.kind == other.kind and self.amount == other.amount and self.fix_hand == other.fix_hand
-                and self.plant_feet == other.plant_feet and self.detail == other.detail and self.points.shape == other.points.shape
-                and np.array_equal(self.points, other.points)
+                and self.plant_feet == other.plant_feet and self.detail == other.detail
+                and self.points.shape == other.points.shape and np.array_equal(self.points, other.points)
                 and (self.times is None) == (other.times is None)
                 and (self.times is None or np.array_equal(self.times, other.times)))
 
@@ -274,7 +274,8 @@ def synthesise_take(state, take: Take) -> None:
     frames = None if take.times is not None else shot.num_frames
     take.path = synth.resample_path(take.points, frames, take.times, fps)
     same_timeline = take.times is None and take.kind != DRAWN
-    detail = synth_detail.source_detail(pad.pca, take.path, "time" if same_timeline else "aligned") if take.detail else None
+    how = "time" if same_timeline else "aligned"
+    detail = synth_detail.source_detail(pad.pca, take.path, how) if take.detail else None
     anim = synth.synthesise(pad.pca, take.points, frames=frames, times=take.times, fps=fps, detail=detail)
     hit = synth.take_hit_frame(take.path, pad.guide, shot.hit_frame, same_timeline)
     leaves = synth.leaves_ball(take.kind if take.kind in synth.PRESETS else None, anim.num_frames,
