@@ -1,14 +1,14 @@
 """The PC pad's widget in the panel (dissertation 3.2, Figures 3.3, 3.4, 3.7): draws the
 pad's model (``app.pcpad.PadState``) and turns what the user does into
-``app.pcpad.PadRequest`` s, which the frame's update carries out. It changes nothing itself:
+``app.viewer.padrequests.PadRequest`` s, which the frame's update carries out. It changes nothing itself:
 the refit, the synthesis and the clean-up run in the update, never while drawing."""
 from __future__ import annotations
 
 import numpy as np
 from imgui_bundle import imgui, implot
 
-from app.viewer.pcpad import (DRAWN_RGBA, MARKER_RGBA, PRESET_LABELS, PRESET_RGBA, SECTION_RGBA, PadRequest,
-                       PadState)
+from app.viewer.padrequests import PadRequest
+from app.viewer.pcpad import DRAWN_RGBA, MARKER_RGBA, PRESET_LABELS, PRESET_RGBA, SECTION_RGBA, PadState
 
 
 def _u32(rgba, alpha=None):

@@ -8,6 +8,7 @@ import numpy as np
 from imgui_bundle import imgui
 
 from app.viewer import pcpad
+from app.viewer.padrequests import PadRequest
 from app.viewer.settings import ViewerSettings
 from app.viewer.state import AppState
 
@@ -56,12 +57,12 @@ def draw_timeline(settings: ViewerSettings, state: AppState, rect: tuple, pad_re
                 settings.frame, settings.playing = scrubbed, False
         else:
             if imgui.button("Pause" if take.playing else " Play ", imgui.ImVec2(48, h - 16)):
-                pad_requests.append(pcpad.PadRequest("play"))
+                pad_requests.append(PadRequest("play"))
             imgui.same_line()
             label = f"take {take.frame:5.1f}/{take.frames - 1}" + ("  (ball left)" if take.hit_frame is None else "")
             scrubbed = _track(rect, take.frames, take.hit_frame, take.frame, label)
             if scrubbed is not None:
-                pad_requests.append(pcpad.PadRequest("seek", scrubbed))
+                pad_requests.append(PadRequest("seek", scrubbed))
     finally:
         imgui.end()
 

@@ -3,7 +3,8 @@
 A square pad in the space of the current shot's first two principal
 components (whole body, 107 parameters). The shot's own score path is drawn as
 a guide, coloured by section (preparation red, stroke green, return blue). In
-"pose" mode dragging the marker sets the pose live (P = (L S)^T * D + M); in
+"pose" mode dragging the marker sets the pose live (P = (L S)^T * D + M, the PCs after the
+first two from the shot unless "source detail" is off: engine.synth_detail); in
 "draw" mode the stroke drawn with the mouse, with its timing, becomes a new
 animation that plays in the viewport. Preset buttons make the exaggerated,
 toned-down and aborted variations of Figure 3.7 (amount slider). Below, the
@@ -18,9 +19,10 @@ clip: re-synthesis is deterministic, so the session (``app.session``) stores
 only that and the clip is made again when the take is picked.
 
 This module is the pad's model, run in the frame's update (``app.update``): the
-widget (``app.padwidget``) and scripts only ask, with :class:`PadRequest`; :func:`step`
-refits, plays and carries the requests out, and :func:`active_pose` is the pose the
-viewport shows instead of the adapted shot. No imgui here.
+widget (``app.padwidget``), the timeline and scripts only ask, with
+``app.viewer.padrequests.PadRequest``, whose ``step`` refits, plays and carries the requests
+out; :func:`active_pose` is the pose the viewport shows instead of the adapted shot. No
+imgui here.
 """
 from __future__ import annotations
 
@@ -29,7 +31,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.viewer.capture import safe_stem, write_new
 from app.viewer.state import Pose
 from app.viewer.takeball import ball_in_take, take_impact
 from engine import bvh, cleanup, synth, synth_detail
@@ -218,7 +219,7 @@ def finish_stroke(state) -> bool:
     if times is not None and times[-1] > synth.MAX_PATH_SECONDS:   # the engine's bound on a take
         state.report(f"pc pad: a stroke over {synth.MAX_PATH_SECONDS:.0f} s is stretched over the shot")
         times = None
-    _make_animation(state, pts, times, DRAWN)
+    make_take(state, pts, times, DRAWN)
     return True
 
 
@@ -232,7 +233,7 @@ def apply_preset(state, preset: str | None = None, amount: float | None = None,
     pad.preset = preset or pad.preset
     pad.amount = pad.amount if amount is None else float(amount)
     path = synth.preset_path(pad.guide, pad.preset, pad.amount, pad.sections)
-    _make_animation(state, path, None, pad.preset, replace=replace)
+    make_take(state, path, None, pad.preset, replace=replace)
 
 
 def play_source_path(state) -> None:
@@ -240,10 +241,10 @@ def play_source_path(state) -> None:
     pad's two PCs alone give)."""
     pad = sync(state)
     if pad is not None:
-        _make_animation(state, pad.guide, None, SOURCE)
+        make_take(state, pad.guide, None, SOURCE)
 
 
-def _make_animation(state, points, times, kind: str, replace: bool = False) -> None:
+def make_take(state, points, times, kind: str, replace: bool = False) -> None:
     """A new take of the current shot from ``points`` (and ``times``), shown and playing;
     the same recipe as a take the shot has already shows that one instead."""
     pad = pad_state(state)
@@ -344,10 +345,10 @@ def advance(pad: PadState, dt: float) -> None:
             f = pad.play_time * pad.anim.fps
         else:
             f, pad.playing = F - 1, False
-    _show_frame(pad, f)
+    show_frame(pad, f)
 
 
-def _show_frame(pad: PadState, f: float) -> None:
+def show_frame(pad: PadState, f: float) -> None:
     """The take's pose, ball and marker at (fractional) frame ``f``."""
     i = int(min(round(f), pad.anim.num_frames - 1))
     g_rot, g_pos = pad.anim_global
@@ -397,69 +398,6 @@ def export_animation(state, path) -> str:
     return str(path)
 
 
-# ---------------------------------------------------------------- requests
-@dataclass(frozen=True)
-class PadRequest:
-    """One thing the user asked of the pad (its widget, a script), carried out in order by
-    :func:`step` in the frame's update. ``action`` is a key of :data:`PAD_ACTIONS`."""
-    action: str
-    value: object = None          # the action's argument: scores (2,), a take index, a preset, an option
-    final: bool = False           # "marker": the last point of a drag (draw mode: the stroke becomes a take)
-
-
-def _marker(state, pad, r):
-    set_scores(state, r.value, final=r.final)
-
-
-def _stroke_start(state, pad, r):
-    pad.stroke = []
-
-
-def _stroke_end(state, pad, r):
-    finish_stroke(state)
-
-
-def _preset(state, pad, r):
-    apply_preset(state, r.value)
-
-
-def _remake_preset(state, pad, r):
-    """The amount slider let go: the preset shown is made again with the new amount."""
-    if pad.anim is not None and pad.path_kind == pad.preset:
-        apply_preset(state, pad.preset, replace=True)
-
-
-def _take(state, pad, r):
-    show_take(state, int(r.value))
-
-
-def _forget(state, pad, r):
-    if 0 <= pad.take < len(pad.shot_takes(state.shot.name)):
-        delete_take(state, pad.take)
-
-
-def _back(state, pad, r):
-    release(state)
-
-
-def _play(state, pad, r):
-    """Play/pause: pause what plays, play the paused take, or else the shot's own 2-PC path."""
-    if pad.playing:
-        pad.playing = False
-    elif pad.anim is not None:
-        pad.playing = True
-    else:
-        play_source_path(state)
-
-
-def _seek(state, pad, r):
-    """The timeline dragged while a take is shown: that frame of the take, paused."""
-    if pad.anim is not None:
-        pad.playing = False
-        pad.play_time = min(float(r.value), pad.anim.num_frames - 1) / pad.anim.fps
-        _show_frame(pad, pad.play_time * pad.anim.fps)
-
-
 @dataclass(frozen=True)
 class TakeTimeline:
     frames: int
@@ -479,17 +417,6 @@ def take_timeline(state) -> TakeTimeline | None:
     return TakeTimeline(pad.anim.num_frames, hit, frame, pad.playing)
 
 
-def _detail(state, pad, r):
-    """The source-detail box: the marker's pose or the take shown made again with it or without
-    (a take of the other kind is another take: both stay to compare)."""
-    pad.detail = bool(r.value)
-    take = shown_take(state)
-    if take is not None and take.detail != pad.detail:
-        _make_animation(state, take.points, take.times, take.kind)
-    elif pad.live and pad.marker is not None:
-        pad.pose = pose_at_scores(state, pad.marker)
-
-
 def shown_take(state) -> Take | None:
     """The take in the viewport (playing or paused on a frame), else None."""
     pad = state.pc_pad
@@ -506,73 +433,3 @@ def pose_take_frame(state, take: Take, frame: int) -> None:
     state.pose, state.pose_source = Pose(g_rot[f], g_pos[f]), "pc pad"
     state.ball_position = None if take.impact is None else ball_in_take(take.impact, f)
     state.shown_flight = None if take.impact is None else take.impact.flight.path
-
-
-def _export(state, pad, r):
-    """The take shown as BVH in a new file of the working directory (never over an earlier one)."""
-    out = write_new(".", f"hitpoint_synth_{safe_stem(state.shot.name)}_", ".bvh",
-                    lambda path: export_animation(state, path))
-    pad.info = f"wrote {out}"
-
-
-def _option(name: str):
-    def set_option(state, pad, r):
-        setattr(pad, name, r.value)
-    return set_option
-
-
-# action -> (carry it out, what its value must be: None, "scores", "index", "frame", a tuple of choices, bool,
-# float)
-PAD_ACTIONS = {
-    "marker": (_marker, "scores"), "stroke_start": (_stroke_start, None), "stroke_end": (_stroke_end, None),
-    "preset": (_preset, tuple(PRESET_LABELS)), "remake_preset": (_remake_preset, None),
-    "take": (_take, "index"), "forget": (_forget, None), "back": (_back, None), "play": (_play, None),
-    "seek": (_seek, "frame"),
-    "export": (_export, None), "mode": (_option("mode"), PAD_MODES), "amount": (_option("amount"), float),
-    "fix_hand": (_option("fix_hand"), bool), "plant_feet": (_option("plant_feet"), bool),
-    "detail": (_detail, bool),
-    "loop": (_option("loop"), bool),
-}
-
-
-def check_request(action, value=None, final: bool = False) -> PadRequest:
-    """A PadRequest whose value suits its action, or ValueError naming what is wrong (scripts
-    are checked with this when loaded)."""
-    if action not in PAD_ACTIONS:
-        raise ValueError(f"unknown PC pad action {action!r} (known: {', '.join(PAD_ACTIONS)})")
-    kind = PAD_ACTIONS[action][1]
-    if kind == "scores":
-        value = np.asarray(value, float).reshape(-1)[:2]
-        ok = value.size == 2 and bool(np.isfinite(value).all())
-    elif kind == "frame":
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 <= value <= synth.MAX_SYNTH_FRAMES
-        value = float(value) if ok else value
-    elif kind == "index":
-        ok = isinstance(value, int) and not isinstance(value, bool) and 0 <= value < MAX_TAKES_PER_SHOT
-    elif kind is float:
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 <= value <= 1.0
-        value = float(value) if ok else value
-    elif kind is bool:
-        ok = isinstance(value, bool)
-    else:
-        ok = value is None if kind is None else value in kind
-    if not ok:
-        raise ValueError(f"PC pad action {action!r}: bad value {value!r}")
-    return PadRequest(action, value, bool(final))
-
-
-def step(state, requests, dt: float) -> None:
-    """The pad's part of the frame's update: refit for a new shot, advance what plays, carry out
-    ``requests`` in order. While the target is dragged nothing happens: a drag can switch shots
-    every frame and the refit takes ~100 ms (the widget says so)."""
-    if state.dragging_target:
-        return
-    pad = sync(state)
-    if pad is None:
-        return
-    advance(pad, dt)
-    for request in requests:
-        try:
-            PAD_ACTIONS[request.action][0](state, pad, request)
-        except Exception as e:     # a bad take or a failed export: a panel message, not a dead window
-            state.report(f"pc pad: {request.action}: {e}")

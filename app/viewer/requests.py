@@ -13,7 +13,7 @@ class Requests:
     screenshot: bool = False          # F12 / the panel's button: a time-stamped PNG of the frame
     export: bool = False              # the panel's "Export shot": a new folder
     reload: bool = False              # re-read the shot library (a bad file keeps the old one)
-    pad: list = field(default_factory=list)   # app.viewer.pcpad.PadRequest, in the order asked
+    pad: list = field(default_factory=list)   # app.viewer.padrequests.PadRequest, in the order asked
 
     def take(self) -> "Requests":
         """Everything asked since the last take; this object starts empty again."""

@@ -18,7 +18,7 @@ frames per second) and a ``"type"``:
   ``s``, ``[``, ``]``, ``f12``, ``r``), ``pcpad_drag {from: [s1,s2], to: [s1,s2],
   frames}`` (scores on the PC pad; ``pcpad_draw``, same fields, draws a path that
   becomes a take), ``pcpad {action, value?}`` (anything the pad's widget does:
-  ``app.pcpad.PAD_ACTIONS``, e.g. ``mode draw``, ``preset aborted``, ``amount 0.7``,
+  ``app.viewer.padrequests.PAD_ACTIONS``, e.g. ``mode draw``, ``preset aborted``, ``amount 0.7``,
   ``remake_preset``, ``take 0``, ``forget``, ``play``, ``seek 30`` (a frame of the take shown), ``back``, ``export``,
   ``fix_hand false``), ``screenshot {path}``, ``export {dir, formats?}`` (a new folder; formats from
   ``png mp4 bvh glb gltf``, default all but ``gltf``), ``reload`` (the panel's "Reload shot library").
@@ -39,7 +39,7 @@ from app.errors import MAX_POSITION_CM, UserError, number, shorten
 from app.viewer.interaction import BUTTON_NAMES, KEY_NAMES, LEFT
 from app.viewer.capture import check_formats
 from app.jsonfile import read_json
-from app.viewer.pcpad import PadRequest, check_request
+from app.viewer.padrequests import PadRequest, check_request
 from app.viewer.picking import TARGET_PLANE_Z
 from app.viewer.settings import MAX_FRAME_SETTING, check_setting
 from engine.synth import MAX_ABS_SCORE
@@ -260,7 +260,7 @@ class ScriptPlayer:
         self._ev_pcpad_drag(f, e)
 
     def _ev_pcpad(self, f, e):
-        """One of the pad widget's actions (``app.pcpad.PAD_ACTIONS``), checked now."""
+        """One of the pad widget's actions (``app.viewer.padrequests.PAD_ACTIONS``), checked now."""
         self._ask(f, check_request(e["action"], e.get("value")))
 
     def _ask(self, f, request: PadRequest) -> None:

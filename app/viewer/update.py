@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from app.viewer import pcpad
+from app.viewer import padrequests, pcpad
 from app.viewer.picking import TARGET_PLANE_Z, clamp_target
 from app.viewer.settings import ViewerSettings
 from app.viewer.state import AppState, Pose
@@ -104,7 +104,7 @@ def update(state: AppState, settings: ViewerSettings, dt: float, pad_requests=()
     ball_at(state, settings.frame)
     state.shown_flight, state.shown_impact = state.flight, state.readouts
     if pad_ready(state):
-        pcpad.step(state, pad_requests, dt)
+        padrequests.step(state, pad_requests, dt)
         pad_pose(state)
     state.readouts.engine_ms += (time.perf_counter() - t0) * 1e3
     if not state.gesture and not settings.playing and solver_ready(state):

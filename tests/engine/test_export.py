@@ -455,8 +455,8 @@ def test_viewer_export_writes_the_take_shown(app, rig, tmp_path):
     ball at the take's bat there) beside the source, the video as long as the take; back to
     the shot, the adapted shot again."""
     import imageio.v2 as iio2
-    from app.viewer import pcpad
-    app.requests.pad.append(pcpad.check_request("preset", "toned_down"))
+    from app.viewer import padrequests, pcpad
+    app.requests.pad.append(padrequests.check_request("preset", "toned_down"))
     app.frame(dt=1 / 60)
     take = pcpad.shown_take(app.state)
     assert take is not None
@@ -475,7 +475,7 @@ def test_viewer_export_writes_the_take_shown(app, rig, tmp_path):
     assert extras[0]["hit_frame"] == h
     got = f.joint_world_positions(np.array([h / clip.fps]), ["Bat", "Ball"])[0]
     assert np.linalg.norm(got[0] - got[1]) * 100 < 0.5          # the ball at the take's bat at its hit
-    app.requests.pad.append(pcpad.check_request("back"))
+    app.requests.pad.append(padrequests.check_request("back"))
     app.frame(dt=1 / 60)
     assert pcpad.shown_take(app.state) is None
 

@@ -184,8 +184,8 @@ def test_the_timeline_follows_a_playing_take_and_scrubs_it(app):
     """While a PC-pad take is shown the timeline is the take's: its handle follows the take's
     frame, a click on the track shows that frame of the take (paused) and leaves the adapted
     shot's frame alone; back to the shot, the track is the shot's again."""
-    from app.viewer import pcpad
-    app.requests.pad.append(pcpad.check_request("preset", "exaggerated"))
+    from app.viewer import padrequests, pcpad
+    app.requests.pad.append(padrequests.check_request("preset", "exaggerated"))
     run(app, 3)
     take = pcpad.take_timeline(app.state)
     assert take is not None and take.playing and take.frame > 0
@@ -197,7 +197,7 @@ def test_the_timeline_follows_a_playing_take_and_scrubs_it(app):
     pad = app.state.pc_pad
     assert np.allclose(app.state.pose.global_positions, pad.anim_global[1][take.hit_frame])
     assert app.settings.frame == shot_frame
-    app.requests.pad.append(pcpad.check_request("back"))
+    app.requests.pad.append(padrequests.check_request("back"))
     run(app, 1)
     assert pcpad.take_timeline(app.state) is None
 

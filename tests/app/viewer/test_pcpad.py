@@ -4,7 +4,7 @@ import pytest
 
 from app.ui import padwidget
 
-from app.viewer import pcpad
+from app.viewer import padrequests, pcpad
 from app.viewer.state import AppState
 from engine import quat
 from engine.library import Shot
@@ -58,11 +58,11 @@ def test_the_source_detail_box_remakes_the_take_shown(state, rig):
     pad = state.pc_pad
     first = pcpad.shown_take(state)
     assert first.detail
-    pcpad.step(state, [pcpad.check_request("detail", False)], 0.0)
+    padrequests.step(state, [padrequests.check_request("detail", False)], 0.0)
     second = pcpad.shown_take(state)
     assert second is not first and not second.detail and second.kind == first.kind
     assert not np.allclose(second.anim.local_rotations, first.anim.local_rotations)
-    pcpad.step(state, [pcpad.check_request("detail", True)], 0.0)
+    padrequests.step(state, [padrequests.check_request("detail", True)], 0.0)
     assert pcpad.shown_take(state) is first and len(pad.shot_takes(state.shot.name)) == 2
 
 
@@ -145,7 +145,7 @@ def test_widget_draws_headless_and_drags(state):
             padwidget.draw_pc_pad(state, requests)
             imgui.end()
             imgui.render()
-            pcpad.step(state, requests, io.delta_time)     # what the update does with them
+            padrequests.step(state, requests, io.delta_time)     # what the update does with them
             return requests
 
         for _ in range(3):
