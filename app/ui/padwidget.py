@@ -162,8 +162,10 @@ def _preset_controls(pad: PadState, ask) -> None:
         imgui.same_line()
         if imgui.button("export BVH"):
             ask(PadRequest("export"))
-    if pad.info:
-        imgui.text_disabled(pad.info)
+    if pad.info:                         # wrapped: a take's line says its clean-up, longer than the panel
+        imgui.push_style_color(imgui.Col_.text, imgui.get_style_color_vec4(imgui.Col_.text_disabled))
+        imgui.text_wrapped(pad.info)
+        imgui.pop_style_color()
 
 
 def _checkbox(label: str, option: str, value: bool, ask) -> None:
