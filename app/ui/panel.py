@@ -254,9 +254,7 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
     r, t = state.readouts, state.timing.shown     # timings: quarter-second means
     if imgui.begin_table("readouts", 2, imgui.TableFlags_.sizing_stretch_prop):
         rows = [(settings.solver, f"{_fmt(r.us_per_frame, '.1f')} us a frame"),
-                ("bat error at hit frame", f"{_fmt(r.bat_error_cm, '.3f')} cm"),
-                ("grip error (this frame)", f"{_fmt(r.grip_error_cm, '.2f')} cm  {_fmt(r.grip_error_deg, '.1f')} deg"),
-                ("grip error (max)", f"{_fmt(r.max_grip_error_cm, '.2f')} cm"),
+                *_error_rows(state),
                 ("engine per frame", f"{t.get('engine', r.engine_ms):.2f} ms"),
                 ("whole-shot solve", f"{t.get('solve', r.solve_ms):.2f} ms"),
                 ("render", f"{t.get('render', r.render_ms):.2f} ms"),
@@ -287,6 +285,27 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
                 imgui.text(value)
         imgui.end_table()
     draw_wagon_wheel(settings, state)
+
+
+def _error_rows(state: AppState) -> list[tuple[str, str]]:
+    """The bat's and the grip's errors of what the viewport shows: a PC-pad take's clean-up
+    (engine.cleanup), else the adapted shot's solve."""
+    take = pcpad.shown_take(state)
+    if take is None:
+        r = state.readouts
+        return [("bat error at hit frame", f"{_fmt(r.bat_error_cm, '.3f')} cm"),
+                ("grip error (this frame)", f"{_fmt(r.grip_error_cm, '.2f')} cm  {_fmt(r.grip_error_deg, '.1f')} deg"),
+                ("grip error (max)", f"{_fmt(r.max_grip_error_cm, '.2f')} cm")]
+    c = take.cleanup
+    rows = []
+    if "bat_error_cm" in c:
+        rows.append(("take's bat error", f"{c['bat_error_cm']:.3f} cm (moved {c['bat_moved_cm']:.0f})"))
+    if "hand_error_cm_max" in c:
+        rows.append(("take's grip (max)", f"{c['hand_error_cm_max']:.2f} cm  {c['hand_error_deg_max']:.1f} deg"))
+    feet = [c[k] for k in ("left_foot_error_cm_max", "right_foot_error_cm_max") if k in c]
+    if feet:
+        rows.append(("take's feet (max)", f"{max(feet):.2f} cm off"))
+    return rows
 
 
 def _frame_shown_row(settings: ViewerSettings, state: AppState) -> tuple[str, str]:

@@ -64,6 +64,7 @@ class Take:
     anim_global: tuple | None = None
     path: np.ndarray | None = None        # (F, 2) the points resampled to the clip's frames
     note: str = ""
+    cleanup: dict = field(default_factory=dict)   # engine.cleanup.CleanupResult.summary() of the clip
     impact: object = None                 # app.takeball.TakeImpact: the ball it meets, made with the clip
 
     def same_recipe(self, other: "Take") -> bool:
@@ -286,7 +287,7 @@ def synthesise_take(state, take: Take) -> None:
     res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, take.fix_hand, take.plant_feet,
                           source_hit_frame=None if leaves else shot.hit_frame, hit_frame=hit)
     anim = res.clip
-    s = res.summary()
+    s = take.cleanup = res.summary()
     take.note = f", hand error max {s['hand_error_cm_max']:.1f} cm" if "hand_error_cm_max" in s else ""
     if leaves:
         take.note += ", leaves the ball"

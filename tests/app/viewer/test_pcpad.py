@@ -66,6 +66,19 @@ def test_the_source_detail_box_remakes_the_take_shown(state, rig):
     assert pcpad.shown_take(state) is first and len(pad.shot_takes(state.shot.name)) == 2
 
 
+def test_the_panel_reads_the_take_s_errors_while_it_is_shown(state, rig):
+    """The readouts' bat and grip errors are the take's clean-up while it is shown (the adapted
+    shot's solve is not what the viewport shows), the adapted shot's again after."""
+    from app.ui.panel import _error_rows
+    pcpad.apply_preset(state, "exaggerated", 0.4)
+    rows = dict(_error_rows(state))
+    assert float(rows["take's bat error"].split()[0]) < 0.01
+    assert "take's grip (max)" in rows and "bat error at hit frame" not in rows
+    pcpad.release(state)
+    state.pc_pad.anim = None
+    assert "bat error at hit frame" in dict(_error_rows(state))
+
+
 def test_an_aborted_take_leaves_the_ball(state, rig):
     """An aborted take (leaving the path before the hit, dissertation 3.2.3) plays no ball: the
     ball passes the shot's hit point untouched and goes on toward the keeper; the panel says the
