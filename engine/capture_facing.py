@@ -31,6 +31,8 @@ def check_facing(value) -> int | str:
         raise ValueError(f"facing must be auto or one of {', '.join(map(str, FACINGS_DEG))} (degrees), "
                          f"got {str(value)[:40]!r}")
     return deg
+
+
 UP = np.array([0.0, 1.0, 0.0])
 
 

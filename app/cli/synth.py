@@ -125,7 +125,8 @@ def _synthesise(rig, src, spec, rate: float, detail: bool, path: Path) -> _Take:
         frames = None if spec.times is not None else src.num_frames
         per_frame = synth.resample_path(points, frames, spec.times, rate)
         more = synth_detail.source_detail(space, per_frame, "time" if spec.preset else "aligned") if detail else None
-        anim = synth.synthesise(space, points, frames=frames, times=spec.times, fps=rate, detail=more)
+        # the path is resampled once: one point a frame is its own resampling
+        anim = synth.synthesise(space, per_frame, frames=len(per_frame), fps=rate, detail=more)
     except ValueError as e:
         raise UserError(f"{path}: {e}") from None
     hit = synth.take_hit_frame(per_frame, synth.source_path(space), src.hit_frame, spec.preset is not None)

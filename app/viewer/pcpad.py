@@ -278,7 +278,8 @@ def synthesise_take(state, take: Take) -> None:
     same_timeline = take.times is None and take.kind != DRAWN
     how = "time" if same_timeline else "aligned"
     detail = synth_detail.source_detail(pad.pca, take.path, how) if take.detail else None
-    anim = synth.synthesise(pad.pca, take.points, frames=frames, times=take.times, fps=fps, detail=detail)
+    # take.path is the points resampled once: one point a frame is its own resampling
+    anim = synth.synthesise(pad.pca, take.path, frames=len(take.path), fps=fps, detail=detail)
     hit = synth.take_hit_frame(take.path, pad.guide, shot.hit_frame, same_timeline)
     leaves = synth.leaves_ball(take.kind if take.kind in synth.PRESETS else None, anim.num_frames,
                                pad.sections, take.amount)
