@@ -253,8 +253,7 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
     imgui.separator_text("Readouts")
     r, t = state.readouts, state.timing.shown     # timings: quarter-second means
     if imgui.begin_table("readouts", 2, imgui.TableFlags_.sizing_stretch_prop):
-        rows = [(settings.solver, f"{_fmt(r.us_per_frame, '.1f')} us a frame"),
-                *_error_rows(state),
+        rows = [_solver_row(settings, state), *_error_rows(state),
                 ("engine per frame", f"{t.get('engine', r.engine_ms):.2f} ms"),
                 ("whole-shot solve", f"{t.get('solve', r.solve_ms):.2f} ms"),
                 ("render", f"{t.get('render', r.render_ms):.2f} ms"),
@@ -285,6 +284,15 @@ def _readouts_section(settings: ViewerSettings, state: AppState) -> None:
                 imgui.text(value)
         imgui.end_table()
     draw_wagon_wheel(settings, state)
+
+
+def _solver_row(settings: ViewerSettings, state: AppState) -> tuple[str, str]:
+    """What the pose in the viewport cost: a PC-pad take's making (synthesis, clean-up and
+    ball, once), else the adapted shot's solver a frame."""
+    take = pcpad.shown_take(state)
+    if take is not None:
+        return ("take made in", f"{_fmt(take.made_ms, '.1f')} ms")
+    return (settings.solver, f"{_fmt(state.readouts.us_per_frame, '.1f')} us a frame")
 
 
 def _error_rows(state: AppState) -> list[tuple[str, str]]:

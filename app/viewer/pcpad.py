@@ -26,6 +26,7 @@ imgui here.
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -66,6 +67,7 @@ class Take:
     note: str = ""
     cleanup: dict = field(default_factory=dict)   # engine.cleanup.CleanupResult.summary() of the clip
     impact: object = None                 # app.takeball.TakeImpact: the ball it meets, made with the clip
+    made_ms: float = math.nan             # synthesis, clean-up and ball of the clip (wall time)
 
     def same_recipe(self, other: "Take") -> bool:
         return (self.kind == other.kind and self.amount == other.amount and self.fix_hand == other.fix_hand
@@ -272,6 +274,7 @@ def synthesise_take(state, take: Take) -> None:
     the same clip, which is why sessions store recipes, not clips)."""
     pad = pad_state(state)
     shot, rig = state.shot, state.rig
+    t0 = time.perf_counter()
     fps = float(shot.clip.fps)
     frames = None if take.times is not None else shot.num_frames
     take.path = synth.resample_path(take.points, frames, take.times, fps)
@@ -297,6 +300,7 @@ def synthesise_take(state, take: Take) -> None:
     take.anim = anim
     take.anim_global = _fk_pose(rig, anim.root_positions, anim.local_rotations)
     take.impact = take_impact(rig, shot, *take.anim_global, hit, state.ball_start, leaves)
+    take.made_ms = (time.perf_counter() - t0) * 1e3
 
 
 def show_take(state, index: int) -> None:

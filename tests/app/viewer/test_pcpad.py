@@ -67,16 +67,21 @@ def test_the_source_detail_box_remakes_the_take_shown(state, rig):
 
 
 def test_the_panel_reads_the_take_s_errors_while_it_is_shown(state, rig):
-    """The readouts' bat and grip errors are the take's clean-up while it is shown (the adapted
-    shot's solve is not what the viewport shows), the adapted shot's again after."""
-    from app.ui.panel import _error_rows
+    """The readouts' bat and grip errors, and the time, are the take's while it is shown (the
+    adapted shot's solve is not what the viewport shows), the adapted shot's again after."""
+    from app.ui.panel import _error_rows, _solver_row
+    from app.viewer.settings import ViewerSettings
+    settings = ViewerSettings()
     pcpad.apply_preset(state, "exaggerated", 0.4)
     rows = dict(_error_rows(state))
     assert float(rows["take's bat error"].split()[0]) < 0.01
     assert "take's grip (max)" in rows and "bat error at hit frame" not in rows
+    label, value = _solver_row(settings, state)
+    assert label == "take made in" and float(value.split()[0]) > 0.0
     pcpad.release(state)
     state.pc_pad.anim = None
     assert "bat error at hit frame" in dict(_error_rows(state))
+    assert _solver_row(settings, state)[0] == settings.solver
 
 
 def test_an_aborted_take_leaves_the_ball(state, rig):
