@@ -53,7 +53,22 @@ Not yet anatomical (issue 14, see the shots' report):
   follow-throughs, but the authoring's arms then lie past the shoulder's ranges
   (library: elbow pops over 20 cm 42, horizontal 168, axial 150, folds 55).
 - Arm x + ArmRoll x, the humeral rotation (AAOS internal 70 / external 90), hold +-90
-  each: the bat's poses in the backlifts and follow-throughs ask for up to 150-180.
+  each: the bat's poses in the backlifts and follow-throughs ask for up to 150-180. No box on
+  the ZYX twist can be AAOS's: an arm across the chest with no axial rotation reads x = 180
+  (z = 180, y = -45; tests/assets/test_rig_anatomy.test_the_euler_twist_is_not_the_axial_rotation).
+  The documented range needs a limit on the axial rotation itself (swing-twist or ISB) in
+  every solver.
+Both hands hold the bat upside down (measured 2026-12-04): the top hand's toe is beyond the
+little finger (``axis`` -Z), and the bottom hand's thumb points up the handle
+(tools/shots_ik.right_in_bat). Branch ``grip`` holds the right way up: the top hand's toe 30
+deg from the fingers toward the thumb, the face 60 deg round the handle from the back of the
+hand (a sweep of both over the library's hits); the bottom hand's palm behind the face, its
+toe 20 deg from the fingers toward the thumb, turned 60 deg about the handle; Hand y at AAOS;
+the stance and rest re-keyed (the bat leaning back 20 deg), the pull's, glance's and sweep's
+bat axes at the hit turned 20-40 deg about their face normals (face and direction kept). Every
+shot then hits with the face inside its region (but the pull's speed peaks 13 frames late and
+the back-foot defence's reaches 4.2 m/s), and the arms' authoring is not re-tuned: elbow pops
+45 -> 122, horizontal 40 -> 93, axial 25 -> 129 arm-frames; 16 library tests fail.
 """
 import json
 from functools import partial

@@ -40,11 +40,12 @@ ANATOMY = [
      lambda r: -(lim(r, "LeftArm", "x")[0] + lim(r, "LeftArmRoll", "x")[0])),
 ]
 # Still wider than documented, with what the bundled shots ask for (see tools/make_rig.py):
-# the rig's grip puts the toe beyond the little finger, so the bat's hang needs radial
-# deviation. The Euler twist (Arm x + ArmRoll x) is the humerus's axial rotation only in the
-# T-pose's plane; the authoring holds the axial rotation as ISB reads it to AAOS where it can
-# (test_shot_smoothness.test_the_humerus_seldom_turns_past_its_axial_range), and the shots'
-# backlifts and follow-throughs still take the Euler twist to 150-180 deg.
+# the rig's grips hold the bat upside down (the top hand's toe beyond the little finger), so
+# the bat's hang needs radial deviation; the right-way-up grips, with the wrists at AAOS, are
+# on branch `grip` and not yet through the library's tests. The Euler twist (Arm x + ArmRoll x)
+# is the humerus's axial rotation only in the T-pose's plane: an arm across the chest with no
+# axial rotation reads 180 (test_the_euler_twist_is_not_the_axial_rotation), so no box on it
+# can be AAOS's range; that needs a limit on the axial rotation itself in every solver.
 KNOWN_WIDER = {"wrist radial deviation": ("LeftHand", "y", -1), "wrist ulnar deviation": ("LeftHand", "y", +1),
                "humeral internal rotation (Arm x + ArmRoll x)": ("twist", "x", +1),
                "humeral external rotation (Arm x + ArmRoll x)": ("twist", "x", -1)}
@@ -137,3 +138,21 @@ def test_the_humerus_reads_as_isb_reads_it(rig):
             g_rot, _ = forward_kinematics(sk.parents, sk.offsets[None].copy(), local)
             got = np.array([v[0] for v in humeral_rotations(rig, g_rot, side)])
             assert np.allclose(got, want, atol=1e-6), (side, (z, y, x), got)
+
+
+def test_the_euler_twist_is_not_the_axial_rotation(rig):
+    """Why the humeral rows stay wider: an upper arm swung across the chest (a turn about the
+    vertical only, 135 deg from out to the side) has no axial rotation as ISB reads it, yet its
+    ZYX Euler twist (the x the rig's limits bound) is 180 on both arms."""
+    from engine.skeleton import forward_kinematics
+    from tools.shots_check import humeral_rotations
+    sk = rig.skeleton
+    for side, s in (("Left", 1.0), ("Right", -1.0)):
+        local = quat.identity((1, sk.num_joints)).copy()
+        arm = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(-135.0 * s))
+        local[0, sk.index(side + "Arm")] = arm
+        g_rot, _ = forward_kinematics(sk.parents, sk.offsets[None].copy(), local)
+        plane, elevation, axial = (v[0] for v in humeral_rotations(rig, g_rot, side))
+        assert np.isclose(elevation, 90.0, atol=1e-6) and np.isclose(axial, 0.0, atol=1e-6)
+        z, y, x = quat.to_euler(arm, "ZYX")
+        assert np.isclose(abs(x), 180.0) and np.isclose(abs(z), 180.0) and np.isclose(y, -45.0 * s)
