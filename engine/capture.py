@@ -237,11 +237,11 @@ def load_capture(path: str | Path, profile: str | Profile = "auto", hit_frame: i
             clip.local_positions = np.concatenate(
                 [clip.local_positions, np.broadcast_to(skel.offsets[-1], (clip.num_frames, 1, 3))], axis=1)
     rig = build_rig(prof, roles, skel, effector)
-    if "axis" not in rig.bat:   # the implement's shaft: from the lead hand through the trail hand
+    if "axis" not in rig.bat:
         lead, trail = roles[f"{prof.lead}_hand"], roles[f"{prof.trail}_hand"]
         h = hit.frame
         span = gpos[h, trail] - gpos[h, lead]
-        axis = quat.rotate(quat.conjugate(grot[h, lead]), span)
+        axis = quat.rotate(quat.conjugate(grot[h, lead]), _shaft(roles, gpos[h], lead, trail))
         rig.bat["axis"] = (axis / max(float(np.linalg.norm(axis)), 1e-9)).tolist()
         # Hands far apart at the hit (a walk: 57 cm) hold nothing: the effector stays, none is drawn.
         rig.bat["held"] = bool(np.linalg.norm(span) <= HELD_SPAN_CM)
@@ -305,6 +305,21 @@ def _implement(prof: Profile, roles: dict, skel: Skeleton, grot_hit: np.ndarray,
     offset = quat.rotate(quat.conjugate(grot_hit[hand]), point - gpos_hit[hand])
     skel = _with_implement(skel, hand, offset)
     return skel, skel.num_joints - 1, True
+
+
+def _shaft(roles: dict, gpos_hit: np.ndarray, lead: int, trail: int) -> np.ndarray:
+    """The implement's shaft at the hit ``(3,)`` (world, unnormalised), when the file has none:
+    arms and implement swing as one unit about the shoulders (Stuelcken et al. 2005; a club
+    at impact lies along the lead arm), so the shaft runs along the swing's radius, from
+    the shoulders' midpoint through the hands'. Without both shoulders: from the lead
+    hand through the trail hand (the wrists of a grip lie across the shaft as much as along
+    it: the CMU golfer's gave a shaft pointing at the keeper, and a face looking down)."""
+    hands = 0.5 * (gpos_hit[lead] + gpos_hit[trail])
+    if "left_arm" in roles and "right_arm" in roles:
+        radius = hands - 0.5 * (gpos_hit[roles["left_arm"]] + gpos_hit[roles["right_arm"]])
+        if np.linalg.norm(radius) > 1e-6:
+            return radius
+    return gpos_hit[trail] - gpos_hit[lead]
 
 
 def _leading_side(rig: Rig, clip: Clip, grot: np.ndarray, gpos: np.ndarray, h: int) -> np.ndarray:

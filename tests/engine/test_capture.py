@@ -85,8 +85,9 @@ def test_the_conversion_s_t_pose_holds_the_first_pose_and_goes_back_on_writing(t
 
 def test_a_capture_facing_away_from_the_ball_is_turned_to_face_it(tmp_path):
     """The CMU golfer swings away from the bowler's end: his implement met the bowled ball with
-    its back (face . toward-ball -0.49). He is turned 180 deg about his hips (a studio's axes
-    differ by multiples of 90 deg) and meets it with the face; the walk holds nothing and stays
+    its back (face . toward-ball -0.99). He is turned 180 deg about his hips (a studio's axes
+    differ by multiples of 90 deg) and meets it with the face, the ball going back up the
+    pitch (within 45 deg of straight, not down into the turf); the walk holds nothing and stays
     as recorded; an explicit facing is kept and written back exactly; a bad one is refused."""
     from engine import face
     from engine.choice import BALL_START
@@ -96,6 +97,9 @@ def test_a_capture_facing_away_from_the_ball_is_turned_to_face_it(tmp_path):
     h, bat = cap.shot.hit_frame, cap.rig.bat_joint
     normal = quat.rotate(g_rot[h, bat], np.asarray(cap.rig.bat["face_normal"], float))
     assert face.face_to_ball(normal, BALL_START, g_pos[h, bat]) >= face.EDGE_COS
+    from engine import ballistics
+    flight, _ = ballistics.shot_flight(cap.rig, cap.shot, g_rot, g_pos, BALL_START, g_pos[h, bat])
+    assert flight.contact == "face" and abs(flight.azimuth_deg) < 45.0 and flight.elevation_deg > -20.0
     assert load_capture(kit.MOCAP / "cmu_02_01_walk.bvh").facing_deg == 0
     asked = load_capture(kit.GOLF, facing=90)
     assert asked.facing_deg == 90
