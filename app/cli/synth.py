@@ -116,21 +116,19 @@ class _Take:
 def _synthesise(rig, src, spec, rate: float, detail: bool, path: Path) -> _Take:
     """The take of ``spec`` on shot ``src``; the path file's bounds that depend on the shot (abort
     frame) or the rate (frames of a timed path) as a UserError naming ``path``."""
-    from engine import synth, synth_detail
+    from engine import synth, synth_take
     from engine import pca as pcam
     space = pcam.fit_clip(rig, src.clip, "body")
     sections = synth.shot_sections(src.fk[1][:, rig.bat_joint], src.hit_frame)
     try:
         points = synth.path_from_spec(spec, space, sections)
-        frames = None if spec.times is not None else src.num_frames
-        per_frame = synth.resample_path(points, frames, spec.times, rate)
-        more = synth_detail.source_detail(space, per_frame, "time" if spec.preset else "aligned") if detail else None
-        # the path is resampled once: one point a frame is its own resampling
-        anim = synth.synthesise(space, per_frame, frames=len(per_frame), fps=rate, detail=more)
+        made = synth_take.make(space, points, spec.times, rate, None if spec.times is not None else src.num_frames,
+                               same_timeline=spec.preset is not None, detail=detail, preset=spec.preset,
+                               amount=spec.amount, sections=sections, guide=synth.source_path(space),
+                               source_hit_frame=src.hit_frame, abort_frame=spec.abort_frame)
     except ValueError as e:
         raise UserError(f"{path}: {e}") from None
-    hit = synth.take_hit_frame(per_frame, synth.source_path(space), src.hit_frame, spec.preset is not None)
-    leaves = synth.leaves_ball(spec.preset, anim.num_frames, sections, spec.amount, spec.abort_frame)
+    per_frame, anim, hit, leaves = made
     return _Take(spec, space, sections, points, per_frame, rate, detail, anim, hit, leaves)
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from app.viewer.state import Pose
 from app.viewer.takeball import ball_in_take, take_impact
-from engine import bvh, cleanup, synth, synth_detail
+from engine import bvh, cleanup, synth, synth_detail, synth_take
 from engine import pca as pcam
 from engine.skeleton import pose_fk
 
@@ -275,17 +275,13 @@ def synthesise_take(state, take: Take) -> None:
     pad = pad_state(state)
     shot, rig = state.shot, state.rig
     t0 = time.perf_counter()
-    fps = float(shot.clip.fps)
-    frames = None if take.times is not None else shot.num_frames
-    take.path = synth.resample_path(take.points, frames, take.times, fps)
     same_timeline = take.times is None and take.kind != DRAWN
-    how = "time" if same_timeline else "aligned"
-    detail = synth_detail.source_detail(pad.pca, take.path, how) if take.detail else None
-    # take.path is the points resampled once: one point a frame is its own resampling
-    anim = synth.synthesise(pad.pca, take.path, frames=len(take.path), fps=fps, detail=detail)
-    hit = synth.take_hit_frame(take.path, pad.guide, shot.hit_frame, same_timeline)
-    leaves = synth.leaves_ball(take.kind if take.kind in synth.PRESETS else None, anim.num_frames,
-                               pad.sections, take.amount)
+    made = synth_take.make(pad.pca, take.points, take.times, float(shot.clip.fps),
+                           None if take.times is not None else shot.num_frames, same_timeline=same_timeline,
+                           detail=take.detail, preset=take.kind if take.kind in synth.PRESETS else None,
+                           amount=take.amount, sections=pad.sections, guide=pad.guide,
+                           source_hit_frame=shot.hit_frame)
+    take.path, anim, hit, leaves = made
     # a take meets the ball as the shot does, where the shot does, with its face
     # (engine.cleanup_hit); an aborted take leaves it
     res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, take.fix_hand, take.plant_feet,
