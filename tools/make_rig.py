@@ -33,6 +33,14 @@ Anatomical ranges (DESIGN.md: a shot that needs more is re-keyed, the limit is n
   box cannot tell that from an arm crossing behind the head, nor bound horizontal
   flexion by 135 on its own; the authoring checks measure those on the bone's
   direction and the trunk (tools/shots_check.shoulder_problems, trunk_problems).
+- UpLeg, the hip (the leg hanging along -y): +z swings the left foot out to the side
+  (abduction 45, adduction 30, AAOS 1965: [-30, 45]), +x swings it back (flexion 120,
+  extension 30: [-120, 30]); mirrored on the right. The shots use abduction up to 40,
+  adduction 20, flexion 107 and no extension. Adduction was 20, tighter than anatomy: it
+  held the CMU golfer's trail foot 5.6 cm off its plant in an exaggerated take. The y column,
+  a turn about the vertical, is the femur's axial rotation only with the hip straight (with
+  it flexed, as in every front leg, it swings the thigh across), so it keeps [-70, 70]; the
+  shots use up to 68.
 Not yet anatomical (issue 14, see the shots' report):
 - Hand y, the wrist's radial/ulnar deviation (AAOS 20 / 30), holds [-75, 55]. Measured:
   -y turns the left hand toward +Z, the thumb (the T-pose's palm-down hand, and the
@@ -131,7 +139,7 @@ def leg(prefix, s):
     lim = partial(mirrored, s)
     L = prefix
     return [
-        joint(f"{L}UpLeg", "Hips", [9.0 * s, -6.0, 0.0], "zyx", lim([-20, 60], [-70, 70], [-120, 45])),
+        joint(f"{L}UpLeg", "Hips", [9.0 * s, -6.0, 0.0], "zyx", lim([-30, 45], [-70, 70], [-120, 30])),
         joint(f"{L}Leg", f"{L}UpLeg", [0.0, -44.0, 0.0], "x", lim(None, None, [0, 150])),
         joint(f"{L}Foot", f"{L}Leg", [0.0, -41.0, 0.0], "zyx", lim([-40, 40], [-35, 35], [-55, 55])),
         joint(f"{L}ToeBase", f"{L}Foot", [0.0, -6.0, 13.0], "x", lim(None, None, [-60, 30]),

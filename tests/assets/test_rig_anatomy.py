@@ -1,4 +1,4 @@
-"""The bundled rig's arm limits against documented anatomical ranges (DESIGN.md: limits are
+"""The bundled rig's arm and hip limits against documented anatomical ranges (DESIGN.md: limits are
 anatomical, a documented range per role; a shot that needs more is re-keyed).
 
 Each row reads one documented range off the rig's Euler limits (degrees, left arm; the right
@@ -6,7 +6,8 @@ arm must be its mirror). Sources:
   AAOS   American Academy of Orthopaedic Surgeons, Joint Motion: Method of Measuring and
          Recording (1965): shoulder flexion 180, extension 60, abduction 180, internal
          rotation 70, external rotation 90; forearm pronation 80, supination 80; wrist
-         flexion 80, extension 70, radial deviation 20, ulnar deviation 30.
+         flexion 80, extension 70, radial deviation 20, ulnar deviation 30; hip flexion 120,
+         extension 30, abduction 45, adduction 30.
   KAP    Kapandji, The Physiology of the Joints vol. 1: pronation 85, supination 90.
 """
 import numpy as np
@@ -49,6 +50,30 @@ ANATOMY = [
 KNOWN_WIDER = {"wrist radial deviation": ("LeftHand", "y", -1), "wrist ulnar deviation": ("LeftHand", "y", +1),
                "humeral internal rotation (Arm x + ArmRoll x)": ("twist", "x", +1),
                "humeral external rotation (Arm x + ArmRoll x)": ("twist", "x", -1)}
+
+
+# The hip (UpLeg, the leg hanging along -y): +z swings the left foot out to the side, +x swings
+# it back. Its y, a turn about the vertical, is the femur's axial rotation only with the hip
+# straight (flexed, as in every shot's front leg, it swings the thigh across): not read here.
+HIP = [
+    ("hip abduction", 45.0, "AAOS", lambda r: lim(r, "LeftUpLeg", "z")[1]),
+    ("hip adduction", 30.0, "AAOS", lambda r: -lim(r, "LeftUpLeg", "z")[0]),
+    ("hip flexion", 120.0, "AAOS", lambda r: -lim(r, "LeftUpLeg", "x")[0]),
+    ("hip extension", 30.0, "AAOS", lambda r: lim(r, "LeftUpLeg", "x")[1]),
+]
+
+
+@pytest.mark.parametrize("motion,documented,source,read", HIP, ids=[a[0] for a in HIP])
+def test_hip_limits_are_the_documented_ranges(rig, motion, documented, source, read):
+    """Each way, the hip's limit is the documented range: not wider, and not narrower either (a
+    tighter adduction, 20, held the CMU golfer's trail foot 5.6 cm off its plant in an
+    exaggerated take: tests/engine/test_capture.py)."""
+    assert abs(read(rig) - documented) <= TOL, f"{motion}: rig {read(rig):.0f}, {source} documents {documented:.0f}"
+
+
+def test_right_hip_limits_mirror_the_left(rig):
+    left, right = (rig.limits[rig.skeleton.index(s + "UpLeg")] for s in ("Left", "Right"))
+    assert np.allclose(right[[0, 1]], -left[[0, 1], ::-1]) and np.allclose(right[2], left[2])
 
 
 @pytest.mark.parametrize("motion,documented,source,read", ANATOMY, ids=[a[0] for a in ANATOMY])
