@@ -394,3 +394,11 @@ def test_cmu_golf_exaggerated_keeps_its_feet_planted(tmp_path):
     for side in ("left", "right"):
         assert res.foot_error_cm[side].max() < 0.05, (side, res.foot_error_cm[side].max())
         assert res.planted[side].sum() >= 0.85 * own.planted[side].sum(), side
+    # and so in the file written back on the golfer's skeleton, read by the kit's own reader
+    # (its hips were turned up to 180 deg there, the foot sliding 35 cm, before engine.euler's fix)
+    src.capture.write(tmp_path / "take.bvh", res.clip.local_rotations, res.clip.root_positions)
+    file_src, file_take = kit.read_bvh(kit.GOLF), kit.read_bvh(tmp_path / "take.bvh")
+    j = file_src["names"].index("RightFoot")
+    planted = res.planted["right"]
+    off = np.linalg.norm(kit.fk(file_take)[:, j] - kit.fk(file_src)[:, j], axis=-1) * CMU_UNIT
+    assert off[planted].max() < 0.05, off[planted].max()
