@@ -256,7 +256,7 @@ class Adapter:
                     roll = twist_only(free)
                     free, kind = free & ~roll[:, None], np.where(roll, KIND_NONE, kind)
                 out.append((ch.joints, ch.offsets, ch.eff_off, np.ascontiguousarray(free),
-                            np.ascontiguousarray(kind), ch.lo, ch.hi, np.ascontiguousarray(w, float)))
+                            np.ascontiguousarray(kind), ch.lo, ch.hi, np.ascontiguousarray(w, float), ch.hold))
                 if name == "left_arm":
                     face_free = np.ascontiguousarray(ch.free)     # the roll joints too
             self._chains[key] = (tuple(out), face_free)

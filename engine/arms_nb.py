@@ -10,7 +10,8 @@ import numpy as np
 from numba import njit
 
 from .fk_nb import chain_fk
-from .quat_nb import q_at, v_at, cross, qrot, vsub
+from .humerus_nb import hold_axial
+from .quat_nb import q_at, v_at, cross, qrot, vadd, vsub
 from .step_nb import MAX_STEP, NO, copy_rows, hinge_axis, lm_eval, lm_loop, lm_parts
 from .end_nb import END_LM, FACE_TOL, GRIP_LENGTH, grip_residual, grip_target, lsq_apply, put_free_locals
 
@@ -22,9 +23,10 @@ BAT_WEIGHT = 10.0       # the two-arm solve: the bat on the ball matters most
 def both_fk(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q):
     """FK of both arm chains into ``bufs`` = (left g_rot, g_pos, right g_rot, g_pos);
     arms = (left offsets, left effector offset, right offsets, right effector offset, rp:
-    the left chain's joint the right arm hangs from). Returns (bat, right hand, the left
+    the left chain's joint the right arm hangs from, the left and right chains' holds:
+    engine.humerus_nb). Returns (bat, right hand, the left
     hand's rotation, the grip's target position, its rotation)."""
-    l_off, l_eoff, r_off, r_eoff, rp = arms
+    l_off, l_eoff, r_off, r_eoff, rp = arms[0], arms[1], arms[2], arms[3], arms[4]
     gl_rot, gl_pos, gr_rot, gr_pos = bufs
     nl = l_off.shape[0]
     bat = chain_fk(prot, ppos, l_off, l_eoff, loc_l, gl_rot, gl_pos)
@@ -32,6 +34,24 @@ def both_fk(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q):
     g_lh = q_at(gl_rot, nl - 1)
     t_pos, t_rot = grip_target(g_lh, v_at(gl_pos, nl - 1), rel_p, rel_q)
     return bat, rh, g_lh, t_pos, t_rot
+
+
+@njit(cache=True)
+def _held_residual(prot, ppos, arms, pose, limits, bufs, goal, r):
+    """:func:`_both_residual` of the step's pose after both upper arms are held
+    (engine.humerus_nb); pose = (left local, right local, left Euler angles, right's),
+    limits = (lo, hi) of both (left first)."""
+    loc_l, loc_r, eul_l, eul_r = pose
+    lo, hi = limits
+    gl_rot, gl_pos, gr_rot, gr_pos = bufs
+    nl, nr = loc_l.shape[0], loc_r.shape[0]
+    bat, t_pos, res = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
+    rh = vadd(v_at(gr_pos, nr - 1), qrot(q_at(gr_rot, nr - 1), (arms[3][0], arms[3][1], arms[3][2])))
+    moved_l = hold_axial(prot, loc_l, eul_l, lo[:nl], hi[:nl], arms[5], gl_rot, gl_pos, bat)
+    moved_r = hold_axial(q_at(gl_rot, arms[4]), loc_r, eul_r, lo[nl:], hi[nl:], arms[6], gr_rot, gr_pos, rh)
+    if moved_l or moved_r:
+        bat, t_pos, res = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
+    return bat, t_pos, res
 
 
 @njit(cache=True)
@@ -170,7 +190,9 @@ def _both_eval(problem):
     prot, ppos, arms, bufs, goal, r = (problem.prot, problem.ppos, problem.arms, problem.bufs, problem.goal,
                                        problem.work[4])
     loc_l, loc_r, _ = problem.pose
-    bat, t_pos, res = _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r)
+    eul_l, eul_r = problem.halves
+    lo, hi = problem.limits
+    bat, t_pos, res = _held_residual(prot, ppos, arms, (loc_l, loc_r, eul_l, eul_r), (lo, hi), bufs, goal, r)
     return res, bat, t_pos
 
 

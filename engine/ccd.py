@@ -29,6 +29,7 @@ from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, be
                       clamp_angle, into_range, other_branch, outside, pick_branch, q_at, v_at, q_put, wrap)
 from .step_nb import YES, Chain, PositionProblem, hinge_axis, lm_loop, scratch
 from .euler import degrees_outside
+from .humerus_nb import held_fk, no_hold, open_window
 
 
 KIND_NONE = 0          # no free DOF: never turned
@@ -105,7 +106,7 @@ def ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s)
     steps weighted by ``ch.weight (n,)`` finish the last centimetres
     (all-zero weights: pure CCD)."""
     offsets, eff_off, weight, g_rot, g_pos = ch.offsets, ch.eff_off, ch.weight, s.g_rot, s.g_pos
-    free, kind, lo, hi = ch.free, ch.kind, ch.lo, ch.hi
+    free, kind, lo, hi, hold = ch.free, ch.kind, ch.lo, ch.hi, ch.hold
     eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
     err = vnorm(vsub(eff, handle))
     if not err >= tol:          # also stops on a NaN handle (pose stays the source)
@@ -119,7 +120,7 @@ def ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s)
         it += 1
         start_err = err
         eff = ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle, tol, eff, g_rot, g_pos)
-        eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+        eff = held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos)
         err = vnorm(vsub(eff, handle))
         if err < tol:
             break
@@ -144,6 +145,7 @@ def ccd_batch(prot, ppos, ch, local, euler, src_euler, handles, tol, max_iter, o
         pr = (prot[f, 0], prot[f, 1], prot[f, 2], prot[f, 3])
         pp = (ppos[f, 0], ppos[f, 1], ppos[f, 2])
         h = (handles[f, 0], handles[f, 1], handles[f, 2])
+        open_window(local[f], ch.hold)
         e, i = ccd_frame(pr, pp, ch, local[f], euler[f], src_euler[f], h, tol, max_iter, s)
         out_err[f] = e
         out_iter[f] = i
@@ -165,6 +167,7 @@ class ChainArrays:
     hi: np.ndarray          # (n,3) radians
     parent: int             # parent joint of the chain root
     polish_weight: np.ndarray = None  # (n,) weights of the Newton finish (0: pure CCD)
+    hold: tuple = field(default_factory=no_hold)  # the upper arm's axial rotation (engine.humerus_nb)
     # the packed tuples, made once: never copied by dataclasses.replace (a changed chain packs its own)
     _tuples: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -175,7 +178,8 @@ class ChainArrays:
         kind = self.kind if kind is None else kind
         weight = self.polish_weight if weight is None else weight
         return Chain(self.joints, self.offsets, self.eff_off, np.ascontiguousarray(free, np.bool_),
-                     np.ascontiguousarray(kind, np.int64), self.lo, self.hi, np.ascontiguousarray(weight, float))
+                     np.ascontiguousarray(kind, np.int64), self.lo, self.hi, np.ascontiguousarray(weight, float),
+                     self.hold)
 
     def kernel_tuple(self, key: str, weight=None) -> tuple:
         """:meth:`packed` with Newton weights ``weight`` as the plain tuple the batch
@@ -210,7 +214,31 @@ def joint_chain(rig, joints, effector: int, wrist_dof: int | None = None, name: 
     lim = np.radians(rig.limits[joints])
     return ChainArrays(joints, eff, skel.offsets[joints].astype(float), eff_off, free, kinds(free),
                        np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1]),
-                       int(skel.parents[joints[0]]), polish_weights(len(joints)))
+                       int(skel.parents[joints[0]]), polish_weights(len(joints)), chain_hold(rig, joints))
+
+
+def chain_hold(rig, joints: np.ndarray) -> tuple:
+    """The hold (engine.humerus_nb) of the chain of ``joints``: the rig's humerus where the
+    chain holds an upper arm and its roll joint, from below the chest (or from the joint
+    under it); else nothing held."""
+    h = getattr(rig, "humerus", None)
+    js = [int(j) for j in joints]
+    for roll, side in (h or {}).get("rolls", {}).items():
+        if roll not in js or js.index(roll) == 0:
+            continue
+        k = js.index(roll)
+        chest = h["chest"]
+        if chest in js:
+            kc = js.index(chest)
+        elif int(rig.skeleton.parents[js[0]]) == chest:
+            kc = -1
+        else:
+            continue
+        if kc >= k - 1:
+            continue
+        rng = np.radians(np.asarray(h["range"], float))
+        return (np.array([kc, k - 1, side], np.int64), rng, rng.copy())
+    return no_hold()
 
 
 def kinds(free: np.ndarray) -> np.ndarray:

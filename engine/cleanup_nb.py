@@ -14,6 +14,7 @@ from .end_nb import GRIP_LENGTH, gather_chain, grip_solve, grip_target, orient_f
 from .frames_nb import GRIP_CM, GRIP_RAD
 from .ccd import ccd_frame
 from .fk_nb import chain_fk
+from .humerus_nb import held, open_window, release, sub_hold
 from .step_nb import Chain, Scratch, scratch, with_limits
 from .quat_nb import q_at, q_put, v_at, clamp_angle, widen_limits, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, vadd, vnorm, vsub
 
@@ -106,7 +107,7 @@ def _two_arms(prot, ppos, bat0, lh0, hold, arms, free, pose, limits, rel, tols, 
     rel = the grip in the left hand's frame (position, rotation); tols = (tol cm,
     orientation tol rad, rounds); bufs as engine.arms_nb.both_fk's; works = the grip
     solves' work of the left arm below the torso and of the right arm."""
-    l_off, l_eoff, r_off, r_eoff, rp = arms
+    l_off, l_eoff, r_off, r_eoff, rp = arms[0], arms[1], arms[2], arms[3], arms[4]
     loc_l, loc_r, eul = pose
     lo, hi = limits
     rel_p, rel_q = rel
@@ -124,11 +125,11 @@ def _two_arms(prot, ppos, bat0, lh0, hold, arms, free, pose, limits, rel, tols, 
     if hold:
         a = rp + 1
         grip_solve(q_at(g_rot, rp), v_at(g_pos, rp), l_off[a:], l_eoff, loc_l[a:], eul[a:nl], free[0][a:],
-                   lo[a:nl], hi[a:nl], handle, lh0, tol, ori_tol, 40, works[0])
+                   lo[a:nl], hi[a:nl], sub_hold(arms[5], a), handle, lh0, tol, ori_tol, 40, works[0])
         chain_fk(prot, ppos, l_off, l_eoff, loc_l, g_rot, g_pos)
     t_pos, t_rot = grip_target(q_at(g_rot, nl - 1), v_at(g_pos, nl - 1), rel_p, rel_q)
     grip_solve(q_at(g_rot, rp), v_at(g_pos, rp), r_off, r_eoff, loc_r, eul[nl:], free[1], lo[nl:], hi[nl:],
-               t_pos, t_rot, tol, ori_tol, 30, works[1])
+               arms[6], t_pos, t_rot, tol, ori_tol, 30, works[1])
     bat, d, oe = _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q)
     turn = math.degrees(q_angle(q_at(g_rot, nl - 1), lh0))
     return vnorm(d) + GRIP_LENGTH * oe + BAT_COST * vnorm(vsub(bat, bat0)) + TURN_COST * turn
@@ -146,20 +147,21 @@ def _arm_alone(pr, pp, target, arm_r, pose_r, warm, tols, s_r, work_r):
     prev_ok, prev_er = warm
     t_pos, t_rot = target
     tol, ori_tol, _ = tols
-    off, eoff, free, lo, hi = arm_r.offsets, arm_r.eff_off, arm_r.free, arm_r.lo, arm_r.hi
+    off, eoff, free, lo, hi, hold = arm_r.offsets, arm_r.eff_off, arm_r.free, arm_r.lo, arm_r.hi, arm_r.hold
     pe = 1e300
     oe = 1e300
     if prev_ok:
         _warm_right(loc_r, eul_r, prev_er, src_r, free, lo, hi)
-        pe, oe = grip_solve(pr, pp, off, eoff, loc_r, eul_r, free, lo, hi, t_pos, t_rot, tol, ori_tol, WARM_ITER,
-                            work_r)
+        pe, oe = grip_solve(pr, pp, off, eoff, loc_r, eul_r, free, lo, hi, hold, t_pos, t_rot, tol, ori_tol,
+                            WARM_ITER, work_r)
     if pe > GRIP_CM or oe > GRIP_RAD:
         loc_r[:] = frame_r
         eul_r[:] = src_r
         ccd_frame(pr, pp, arm_r, loc_r, eul_r, src_r, t_pos, tol, 200, s_r)
-        orient_finish(pr, pp, off, eoff, loc_r, eul_r, src_r, free, arm_r.kind, lo, hi, t_rot,
-                      work_r[0], work_r[1], 8, ori_tol)
-        pe, oe = grip_solve(pr, pp, off, eoff, loc_r, eul_r, free, lo, hi, t_pos, t_rot, tol, ori_tol, 30, work_r)
+        orient_finish(pr, pp, off, eoff, loc_r, eul_r, src_r, free, arm_r.kind, lo, hi, hold, t_rot,
+                      (work_r[0], work_r[1]), 8, ori_tol)
+        pe, oe = grip_solve(pr, pp, off, eoff, loc_r, eul_r, free, lo, hi, hold, t_pos, t_rot, tol, ori_tol, 30,
+                            work_r)
     return pe, oe
 
 @njit(cache=True)
@@ -233,7 +235,8 @@ def grip_frames(local, euler, hips, left, right, rp, rel_pos, rel_rot, tols):
     src_r, frame_r, prev_er = np.empty((nr, 3)), np.empty((nr, 4)), np.empty((nr, 3))
     keep = (np.empty((nl, 4)), np.empty((nl, 3)), np.empty((nr, 4)), np.empty((nr, 3)), np.empty((nl, 4)),
             np.empty((nr, 4)), np.empty((nr, 3)), frame_r, src_r)
-    arms = (left.offsets, left.eff_off, right.offsets, right.eff_off, rp)
+    release(left.hold)          # the left arm moves here only with the torso's help, free
+    arms = (left.offsets, left.eff_off, right.offsets, right.eff_off, rp, left.hold, right.hold)
     arm_r = with_limits(right, lo[nl:], hi[nl:])    # (the frame's limits, filled below)
     bat_moved = np.zeros(local.shape[0])
     prev_ok = 0
@@ -244,6 +247,7 @@ def grip_frames(local, euler, hips, left, right, rp, rel_pos, rel_rot, tols):
         gather_chain(euler[f], rj, eul_r)
         widen_limits(left.lo, left.hi, eul_l, lo[:nl], hi[:nl])
         widen_limits(right.lo, right.hi, eul_r, lo[nl:], hi[nl:])
+        open_window(loc_r, right.hold)
         src_r[:] = eul_r
         frame_r[:] = loc_r
         prot, ppos = q_at(hips[0], f), v_at(hips[1], f)
@@ -254,6 +258,13 @@ def grip_frames(local, euler, hips, left, right, rp, rel_pos, rel_rot, tols):
             target = grip_target(lh0, v_at(bufs[1], nl - 1), rel[0], rel[1])
             pe, oe = _arm_alone(q_at(bufs[0], rp), v_at(bufs[1], rp), target, arm_r, (loc_r, eul_r, src_r, frame_r),
                                 (prev_ok, prev_er), tols, s_r, works[1])
+            if (pe > GRIP_CM or oe > GRIP_RAD) and held(right.hold):
+                # the humerus held keeps the hand off its grip: let it go (and the torso's help runs free)
+                release(right.hold)
+                loc_r[:] = frame_r
+                eul_r[:] = src_r
+                pe, oe = _arm_alone(q_at(bufs[0], rp), v_at(bufs[1], rp), target, arm_r,
+                                    (loc_r, eul_r, src_r, frame_r), (prev_ok, prev_er), tols, s_r, works[1])
             if pe > GRIP_CM or oe > GRIP_RAD:
                 _arms_together(prot, ppos, (bat0, lh0), arms, (left.free, right.free), (loc_l, loc_r, eul),
                                (lo, hi), rel, tols, bufs, works, keep, (prev_ok, prev_er))

@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit
 
 from .ccd import ITERATIONS, TOLERANCE, ChainArrays, _check_handles, _STALL, _STALL_REL, limit_euler
+from .humerus_nb import open_window
 from .step_nb import NO, Chain, PositionProblem, lm_eval, lm_loop, scratch
 
 DAMPING = 1.0           # cm
@@ -42,6 +43,7 @@ def dls_batch(prot, ppos, ch, local, euler, damping, handles, tol, max_iter, out
         pr = (prot[f, 0], prot[f, 1], prot[f, 2], prot[f, 3])
         pp = (ppos[f, 0], ppos[f, 1], ppos[f, 2])
         h = (handles[f, 0], handles[f, 1], handles[f, 2])
+        open_window(local[f], ch.hold)
         e, i = dls_frame(pr, pp, ch, local[f], euler[f], damping, h, tol, max_iter, s)
         out_err[f] = e
         out_iter[f] = i

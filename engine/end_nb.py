@@ -13,6 +13,7 @@ from numba import njit
 
 from .ccd import KIND_MULTI, KIND_NONE
 from .fk_nb import chain_fk
+from .humerus_nb import held_fk
 from .quat_nb import q_at, q_put, v_at, cross, dot, clamp_angle, from_euler_zyx, pick_branch, q_angle, qconj, qmul, qrot, to_euler_zyx, vadd, vnorm, vsub
 from .step_nb import MAX_STEP, NO, copy_rows, hinge_axis, lm_eval, lm_loop, lm_parts
 
@@ -24,11 +25,14 @@ END_ROWS = np.int64(6)  # rows of the grip and face solves (an int64, not a lite
 
 
 @njit(cache=True)
-def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi,
-                  target_rot, g_rot, g_pos, reps, ori_tol):
+def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, kind, lo, hi, hold,
+                  target_rot, fk_bufs, reps, ori_tol):
     """Turn the trailing chain joints that leave the effector where it is (the
     effector's own joint, a twist about the bone it lies on) so the last
-    joint's global rotation approaches target_rot. Returns the angle error (rad)."""
+    joint's global rotation approaches target_rot; the upper arm held once at the end
+    (``hold``, engine.humerus_nb). fk_bufs = (g_rot (n,4), g_pos (n,3)) the chain's FK.
+    Returns the angle error (rad)."""
+    g_rot, g_pos = fk_bufs
     n = offsets.shape[0]
     eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
     err = q_angle(q_at(g_rot, n - 1), target_rot)
@@ -68,7 +72,9 @@ def orient_finish(prot, ppos, offsets, eff_off, local, euler, src_euler, free, k
             q_put(local, k, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2]))
             eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
         err = q_angle(q_at(g_rot, n - 1), target_rot)
-    return err
+    # held once at the end: its turns keep the effector, the hold's swing turns the hand back
+    held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos)
+    return q_angle(q_at(g_rot, n - 1), target_rot)
 
 
 @njit(cache=True)
@@ -245,6 +251,7 @@ class EndProblem(NamedTuple):
     weight: np.ndarray  # (n,) 1 / stiffness (0: held)
     lo: np.ndarray      # (n,3) radians
     hi: np.ndarray      # (n,3) radians
+    hold: tuple         # the upper arm's axial rotation held after every step (engine.humerus_nb)
     goal: tuple         # as _end_residual's
     tol: float          # cm
     ori_tol: float      # the turn error's tolerance
@@ -278,8 +285,9 @@ def _end_step(problem, state, damping):
 def _end_eval(problem):
     prot, ppos, offsets, eff_off, local, goal = (problem.prot, problem.ppos, problem.offsets, problem.eff_off,
                                                  problem.local, problem.goal)
+    euler, lo, hi, hold = problem.euler, problem.lo, problem.hi, problem.hold
     g_rot, g_pos, r = problem.work[0], problem.work[1], problem.work[6]
-    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    eff = held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos)   # the step's pose, held
     res, pe, oe = _end_residual(goal, eff, q_at(g_rot, local.shape[0] - 1), r)
     return res, eff, pe, oe
 
@@ -303,7 +311,7 @@ def _end_solve(problem, max_iter, stall):
 
 
 @njit(cache=True)
-def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_pos, target_rot,
+def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, hold, target_pos, target_rot,
                tol, ori_tol, max_iter, work):
     """Damped Newton on position and orientation of the chain's last joint
     from the current pose (after the position solve and the twist/hand finish
@@ -313,21 +321,23 @@ def grip_solve(prot, ppos, offsets, eff_off, local, euler, free, lo, hi, target_
             (target_rot[0], target_rot[1], target_rot[2], target_rot[3]), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
             GRIP_LENGTH)
     return _end_solve(EndProblem(prot, ppos, offsets, eff_off, local, euler, free, np.ones(offsets.shape[0]), lo, hi,
-                                 goal, tol, ori_tol, work), max_iter, 1e-3)
+                                 hold, goal, tol, ori_tol, work), max_iter, 1e-3)
 
 
 @njit(cache=True)
-def face_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, target_pos, target_n,
-               n_last, tol, max_iter, work):
+def face_solve(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, hold, target, tol, max_iter,
+               work):
     """Damped Newton on the effector's position AND the bat face: the normal
     ``n_last`` (in the last chain joint's frame) turned onto the world ``target_n``,
     from the current (position-solved) pose, by the free joints with a weight
     (1 / stiffness; 0: held); the roll joints, which position-only CCD leaves alone,
-    turn the face back. work as :class:`EndProblem`'s. Returns (position error cm,
-    face error: the chord between the unit normals, ~rad)."""
+    turn the face back; ``hold`` holds the upper arm after every step (engine.humerus_nb).
+    target = (target_pos, target_n, n_last); work as :class:`EndProblem`'s. Returns
+    (position error cm, face error: the chord between the unit normals, ~rad)."""
+    target_pos, target_n, n_last = target
     goal = (True, (target_pos[0], target_pos[1], target_pos[2]), (1.0, 0.0, 0.0, 0.0),
             (target_n[0], target_n[1], target_n[2]), (n_last[0], n_last[1], n_last[2]), FACE_LENGTH)
-    return _end_solve(EndProblem(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, goal, tol,
+    return _end_solve(EndProblem(prot, ppos, offsets, eff_off, local, euler, free, weight, lo, hi, hold, goal, tol,
                                  FACE_TOL, work), max_iter, 1e-4)
 
 

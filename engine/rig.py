@@ -38,6 +38,9 @@ class Rig:
     feet: dict[str, list[int]] = field(default_factory=dict)
     animated_joints: int = 0  # joints that carry animation (PCA parameters)
     roles: dict = field(default_factory=dict)  # role -> joint(s), for a rig built from a profile
+    # the humerus's axial rotation (engine.humerus_nb): {"chest": joint, "rolls": {roll joint:
+    # +1 left / -1 right}, "range": (-external, internal) degrees}; empty: not held
+    humerus: dict = field(default_factory=dict)
 
     @property
     def bat_joint(self) -> int:
@@ -89,7 +92,18 @@ def load_rig(path: str | Path) -> Rig:
     feet = {k: [skel.index(n) for n in v] for k, v in data.get("feet", {}).items()}
     return Rig(skel, dof, limits, chains, data["bat"], data["ball"]["diameter"] / 2,
                skel.index(data["wrist"]["joint"]), int(data["wrist"]["default_dof"]), feet,
-               int(data.get("animated_joints", J)))
+               int(data.get("animated_joints", J)), humerus=_humerus(skel, data.get("humerus")))
+
+
+def _humerus(skel: Skeleton, h: dict | None) -> dict:
+    """The rig's humerus entry with joint indices; each roll joint's parent (the upper arm)
+    turns about its x too."""
+    if not h:
+        return {}
+    if not 0.0 <= h["internal"] <= 180.0 or not 0.0 <= h["external"] <= 180.0:
+        raise ValueError("rig: humerus internal/external rotation must be 0..180 degrees")
+    rolls = {skel.index(h["left"]): 1, skel.index(h["right"]): -1}
+    return {"chest": skel.index(h["chest"]), "rolls": rolls, "range": (-float(h["external"]), float(h["internal"]))}
 
 
 def assets_dir() -> Path:

@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from .fk_nb import chain_fk
+from .humerus_nb import held_fk
 from .quat_nb import clamp_angle, cross, from_euler_zyx, q_at, q_put, qmul, qrot, v_at, vnorm, vsub
 
 MAX_STEP = 0.25         # rad: the largest angle change of one step (the linearisation holds for small turns)
@@ -35,11 +35,11 @@ MAX_STEP = 0.25         # rad: the largest angle change of one step (the lineari
 YES = np.bool_(True)
 NO = np.bool_(False)
 
-Chain = namedtuple("Chain", "joints offsets eff_off free kind lo hi weight")
+Chain = namedtuple("Chain", "joints offsets eff_off free kind lo hi weight hold")
 """A solver chain: joints (n,) int64 skeleton indices, offsets (n,3), eff_off (3,) the
 effector in the last joint's frame, free (n,3) bool Euler columns (z, y, x) the solver may
 move, kind (n,) int64 (see engine.ccd), lo/hi (n,3) radians, weight (n,) of the Newton
-steps."""
+steps, hold: the upper arm's axial rotation held after every step (engine.humerus_nb)."""
 
 Scratch = namedtuple("Scratch", "g_rot g_pos cols dofs bak_l bak_e")
 """Work buffers: chain globals g_rot (n,4) / g_pos (n,3); the step's columns cols (3n,3)
@@ -56,7 +56,7 @@ def scratch(n):
 @njit(cache=True)
 def with_limits(ch, lo, hi):
     """``ch`` with other limits (a frame's, widened to take in its start pose)."""
-    return Chain(ch.joints, ch.offsets, ch.eff_off, ch.free, ch.kind, lo, hi, ch.weight)
+    return Chain(ch.joints, ch.offsets, ch.eff_off, ch.free, ch.kind, lo, hi, ch.weight, ch.hold)
 
 
 @njit(cache=True)
@@ -286,10 +286,10 @@ def _position_step(problem, state, damping):
 
 
 def _position_eval(problem):
-    prot, ppos, local, handle, ch, s = (problem.prot, problem.ppos, problem.local, problem.handle, problem.ch,
-                                        problem.s)
-    offsets, eff_off, g_rot, g_pos = ch.offsets, ch.eff_off, s.g_rot, s.g_pos
-    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    prot, ppos, local, euler, handle, ch, s = (problem.prot, problem.ppos, problem.local, problem.euler,
+                                               problem.handle, problem.ch, problem.s)
+    offsets, eff_off, lo, hi, hold, g_rot, g_pos = ch.offsets, ch.eff_off, ch.lo, ch.hi, ch.hold, s.g_rot, s.g_pos
+    eff = held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos)   # the step's pose, held
     return vnorm(vsub(eff, handle)), eff
 
 

@@ -182,6 +182,9 @@ def rig():
         },
         "wrist": {"joint": "LeftHand", "default_dof": 0},
         "feet": {"left": ["LeftFoot", "LeftToeBase"], "right": ["RightFoot", "RightToeBase"]},
+        # the humerus's axial rotation as ISB reads it (engine.humerus_nb), AAOS's range
+        "humerus": {"chest": "Spine2", "left": "LeftArmRoll", "right": "RightArmRoll",
+                    "internal": 70, "external": 90},
         "bat": BAT,
         "ball": {"diameter": BALL_DIAMETER},
     }
