@@ -152,14 +152,15 @@ def _excess(rel, side, window):
 
 
 @njit(cache=True)
-def _swing_about(axis, chest_inv, hum, window, side):
+def _swing_about(axis, chest_inv, hum, window, side, out0):
     """The smallest turn of SWING_STEP's (radians) of the upper arm about ``axis``
     (shoulder -> effector, world) that brings its axial rotation inside the window, or
-    failing that the one that leaves it least outside. ``chest_inv``: the chest's global
-    rotation inverted; ``hum``: the roll joint's global rotation. (Bisecting down to the
+    failing that the one that leaves it least outside, if less than unturned (``out0``).
+    ``chest_inv``: the chest's global rotation inverted; ``hum``: the roll joint's global
+    rotation. (Bisecting down to the
     window's edge instead of stopping a step inside it left more arms past the range over
     the shots' grids: the next step starts at the edge.)"""
-    best, best_out = 0.0, 1e300
+    best, best_out = 0.0, out0
     for i in range(2 * SWING_STEPS):
         phi = (i // 2 + 1) * SWING_STEP * (1.0 if i % 2 == 0 else -1.0)
         out, _ = _excess(qmul(chest_inv, qmul(axis_angle(axis, phi), hum)), side, window)
@@ -247,7 +248,7 @@ def hold_axial(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff):
     if out == 0.0 or n < 1e-6:
         return False
     axis = (u[0] / n, u[1] / n, u[2] / n)
-    phi = _swing_about(axis, chest_inv, hum, window, side)
+    phi = _swing_about(axis, chest_inv, hum, window, side, out)
     if phi == 0.0:
         return False
     parent = prot if ka == 0 else q_at(g_rot, ka - 1)
