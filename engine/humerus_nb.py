@@ -235,7 +235,8 @@ def hold_axial(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff):
     rotation inside the hold's window (or as near as such a turn gets it): in place on
     ``local (n,4)`` and ``euler (n,3)``, the arm's angles clamped to ``lo/hi (n,3)``.
     ``g_rot``/``g_pos``/``eff``: the chain's FK of this pose (``prot``: its root's parent's
-    rotation). Returns whether the pose changed (its FK is then stale). A turn about the
+    rotation). Returns whether the pose changed (its FK is then stale): not if the arm's
+    Euler limits clamp the swing to no gain. A turn about the
     bone instead would move the effector, and the solvers' next step would turn it back:
     measured, it left more arms past the range and cost more."""
     idx, _, window = hold
@@ -252,5 +253,12 @@ def hold_axial(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff):
     if phi == 0.0:
         return False
     parent = prot if ka == 0 else q_at(g_rot, ka - 1)
+    keep_q, keep_e = q_at(local, ka), (euler[ka, 0], euler[ka, 1], euler[ka, 2])
     _put_arm(local, euler, lo, hi, ka, qmul(qconj(parent), qmul(axis_angle(axis, phi), q_at(g_rot, ka))))
-    return True
+    # the arm's Euler limits may clamp the swing: kept only if the arm still ends less far out
+    hum = qmul(qmul(parent, q_at(local, ka)), q_at(local, ka + 1))
+    if _excess(qmul(chest_inv, hum), side, window)[0] < out:
+        return True
+    q_put(local, ka, keep_q)
+    euler[ka, 0], euler[ka, 1], euler[ka, 2] = keep_e
+    return False

