@@ -194,7 +194,14 @@ def held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_p
     """:func:`engine.fk_nb.chain_fk` of the pose after :func:`hold_axial` held it (in place):
     the solvers' FK after a step. Returns the effector."""
     eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-    if hold[0][1] >= 0 and hold_axial(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff):
+    idx, window = hold[0], hold[2]
+    ka, kc = idx[1], idx[0]
+    if ka < 0 or window[1] - window[0] >= 2.0 * math.pi:
+        return eff
+    # the check here, the hold's call only when it is past (a call with a dozen arrays costs)
+    chest = prot if kc < 0 else q_at(g_rot, kc)
+    out, _ = _excess(qmul(qconj(chest), qmul(q_at(g_rot, ka), q_at(local, ka + 1))), idx[2], window)
+    if out > 0.0 and hold_axial(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff):
         eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
     return eff
 
