@@ -64,8 +64,9 @@ Not yet anatomical (issue 14, see the shots' report):
   each: the bat's poses in the backlifts and follow-throughs ask for up to 150-180. No box on
   the ZYX twist can be AAOS's: an arm across the chest with no axial rotation reads x = 180
   (z = 180, y = -45; tests/assets/test_rig_anatomy.test_the_euler_twist_is_not_the_axial_rotation).
-  The documented range needs a limit on the axial rotation itself (swing-twist or ISB) in
-  every solver.
+  So the rig gives the axial range itself (``humerus``: AAOS internal 70 / external 90, read
+  as ISB does), and every solver holds it after each step (engine/humerus_nb.py); the Euler
+  box stays the joints' own reach.
 Both hands hold the bat upside down (measured 2026-12-04): the top hand's toe is beyond the
 little finger (``axis`` -Z), and the bottom hand's thumb points up the handle
 (tools/shots_ik.right_in_bat). Branch ``grip`` holds it the right way up: the top hand's toe
