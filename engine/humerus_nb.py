@@ -220,22 +220,6 @@ def held(hold):
 
 
 @njit(cache=True)
-def unheld(hold):
-    """The same chain's hold that holds nothing (the solves' first run, free)."""
-    return (np.array([-1, -1, hold[0][2]], np.int64), hold[1], hold[2])
-
-
-@njit(cache=True)
-def outside_window(local, hold):
-    """Whether the pose ``local (n,4)`` turns the upper arm past the hold's window."""
-    idx, _, window = hold
-    if idx[1] < 0:
-        return False
-    out, _ = _excess(_relative(local, idx), idx[2], window)
-    return out > 0.0
-
-
-@njit(cache=True)
 def hold_axial(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff):
     """Swing the whole upper arm about the line from the shoulder to the effector, which
     leaves the effector where it is, by the smallest turn that brings the humerus's axial
