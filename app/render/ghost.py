@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import moderngl
 
-from .gl import depth_writes, set_uniform
+from .gl import color_writes, depth_writes, set_uniform
 from .shadow import IDENTITY
 from .skinning import PosedBody
 
@@ -25,9 +25,9 @@ class GhostPass:
         ctx.enable(moderngl.CULL_FACE)
         set_uniform(p.depth, "u_view_proj", frame.vp)
         set_uniform(p.depth, "u_model", IDENTITY)
-        fbo.color_mask = (False, False, False, False)
+        color_writes(ctx, False)
         self.posed.shadow.render()
-        fbo.color_mask = (True, True, True, True)
+        color_writes(ctx, True)
         ctx.depth_func = "<="
         depth_writes(ctx, False)
         set_uniform(p.static, "u_model", IDENTITY)

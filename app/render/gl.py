@@ -98,6 +98,15 @@ def depth_writes(ctx, on: bool) -> None:
     ctx.fbo.depth_mask = on
 
 
+def color_writes(ctx, on: bool) -> None:
+    """Turn colour writes of the bound framebuffer on or off (a depth-only pre-pass).
+    moderngl 5 stores a framebuffer's colour mask when it is set but hands it to GL only when
+    the framebuffer is bound (``use``, or a ``clear``): set alone, draws kept writing colour."""
+    fbo = ctx.fbo
+    fbo.color_mask = (on,) * 4
+    fbo.use()
+
+
 def mat_bytes(m: np.ndarray) -> bytes:
     """Row-major (..., 4, 4) column-vector matrices as GLSL (column-major) bytes."""
     m = np.asarray(m, np.float32)

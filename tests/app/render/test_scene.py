@@ -153,6 +153,23 @@ def test_overlays_target_ghost_and_lines(renderer, rig):
     assert skel[int(r), int(c)][0] > 150 and skel[int(r), int(c)][1] < 120   # red line on top of the body
 
 
+def test_the_ghost_is_as_translucent_as_asked(renderer, rig):
+    """Blended at alpha a, no pixel moves more than a of the way to the ghost's colour: the
+    depth pre-pass writes no colour (it once drew the ghost opaque on the plain path)."""
+    _, M = pose(rig, ARMS_DOWN)
+    base = view_of(M)
+    plain = render(renderer, base)
+    _, M1 = pose(rig, dict(ARMS_DOWN, LeftArm=((0, 0, 1), 40)))
+    moved = {}
+    for alpha in (0.1, 0.25):
+        ghost = render(renderer, dataclasses.replace(base, ghost_skin_matrices=M1, ghost_alpha=alpha))
+        moved[alpha] = np.abs(ghost - plain).max(-1)
+        assert moved[alpha].max() <= 255 * alpha + 4, alpha
+    seen = moved[0.25] > 8
+    assert seen.sum() > 300                                   # the raised arm and the body
+    assert moved[0.25][seen].mean() > 1.8 * moved[0.1][seen].mean()
+
+
 def test_look_at_and_perspective_centre_the_target():
     from app.render import look_at, perspective
     V = look_at((100.0, 50.0, 300.0), (0.0, 100.0, 0.0))
