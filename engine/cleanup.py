@@ -31,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 
 from . import quat
 from .rig import Rig
@@ -46,6 +47,9 @@ PLANT_SPEED = 15.0     # cm/s: slower than this counts as planted ...
 PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
 PLANT_BLEND = 4        # frames over which a plant fades in and out
 REACH = 0.995          # a plant further from the hip than this share of the leg is left
+FOOT_TOL = 0.05        # cm: a planted ankle further than this off its plant moves the hips ...
+PELVIS_ROUNDS = 12      # ... at most this many times ...
+PELVIS_SMOOTH = 2.0    # ... by what the feet miss, smoothed over this many frames (Gaussian sigma)
 
 
 @dataclass
@@ -95,8 +99,7 @@ def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bo
     res = CleanupResult(out)
     if plant_feet:
         # feet first: the hand fix does not move the legs, the leg fix moves nothing above the hips
-        for side in ("left", "right"):
-            err, planted = plant_foot(rig, skeleton, out, src_rot, src_pos, source.fps, side, m)
+        for side, (err, planted) in feet_on_plants(rig, skeleton, out, src_rot, src_pos, source.fps, m).items():
             res.foot_error_cm[side] = err
             res.planted[side] = planted
     if fix_hand:
@@ -207,12 +210,10 @@ def plant_targets(foot: np.ndarray, source_foot: np.ndarray, planted: np.ndarray
     return target
 
 
-def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
-               side: str, source_frames: np.ndarray):
-    """Two-bone IK of one leg, in place, toward the source's ankle in its planted frames.
-
-    Returns ``(error (F,), planted (F,))``: the remaining ankle error in cm
-    (0 where not planted) and the planted frames."""
+def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
+               side: str, source_frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One foot's plant in ``clip``: ``(planted (F,) bool, ankle targets (F, 3), foot
+    rotations (F, 4))`` where the source's foot is planted (:func:`plant_targets`)."""
     chain = rig.chains[f"{side}_leg"]
     ankle = chain.effector
     # runs only: a foot slow and low for a frame or two is passing the ground, not planted
@@ -222,24 +223,61 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     for a, b in planted_runs(src_global_pos[:, ankle], fps):
         src_planted[a:b] = True
     planted = src_planted[source_frames]
-    F = clip.num_frames
     g_rot, g_pos = _fk(skeleton, clip)
     t_pos = plant_targets(g_pos[:, ankle], src_global_pos[source_frames, ankle], planted)
     # where the new motion takes the hip further from the plant than the leg reaches (an
     # exaggerated drive's lunge), the foot leaves it, heel up, as a batsman's back foot does
     leg_cm = np.linalg.norm(skeleton.offsets[chain.joints[1:]], axis=-1).sum()
     planted = planted & (np.linalg.norm(t_pos - g_pos[:, chain.joints[0]], axis=-1) < REACH * leg_cm)
+    return planted, t_pos, src_global_rot[source_frames, ankle]
+
+
+def reach_plant(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant) -> np.ndarray:
+    """The leg of ``side`` solved toward its ``plant`` (:func:`foot_plant`), in place, with
+    a short blend at the plant's ends. Returns ``(F, 3)`` what the ankle still misses, cm
+    (target - ankle; 0 where not planted)."""
+    planted, t_pos, t_rot = plant
     w = _plant_weight(planted)
     if not w.any():
-        return np.zeros(F), planted
-    sel = w > 0
-    t_rot = src_global_rot[source_frames, ankle]
+        return np.zeros((clip.num_frames, 3))
+    ankle = rig.chains[f"{side}_leg"].effector
+    g_rot, g_pos = _fk(skeleton, clip)
     target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
     target_rot = quat.slerp(g_rot[:, ankle], t_rot, w)
-    _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, target, target_rot, sel)
-    g_rot, g_pos = _fk(skeleton, clip)
-    err = np.where(planted, np.linalg.norm(g_pos[:, ankle] - t_pos, axis=-1), 0.0)
-    return err, planted
+    _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, target, target_rot, w > 0)
+    g_pos = _fk(skeleton, clip)[1]
+    return np.where(planted[:, None], t_pos - g_pos[:, ankle], 0.0)
+
+
+def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
+               side: str, source_frames: np.ndarray):
+    """Two-bone IK of one leg, in place, toward the source's ankle in its planted frames.
+
+    Returns ``(error (F,), planted (F,))``: the remaining ankle error in cm
+    (0 where not planted) and the planted frames."""
+    plant = foot_plant(rig, skeleton, clip, src_global_rot, src_global_pos, fps, side, source_frames)
+    return np.linalg.norm(reach_plant(rig, skeleton, clip, side, plant), axis=-1), plant[0]
+
+
+def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
+               source_frames: np.ndarray) -> dict:
+    """Both feet onto their plants (:func:`plant_foot`), in place; where a leg's limits keep
+    its ankle off its plant (an exaggerated golf swing turns the hips past what the trail
+    hip's adduction follows), the hips follow the feet: the root moves by what the feet
+    still miss, smoothed over a few frames so the pelvis does not jerk, and the legs are
+    solved again. Returns ``{side: (error (F,) cm, planted (F,))}``."""
+    sides = ("left", "right")
+    plants = {s: foot_plant(rig, skeleton, clip, src_global_rot, src_global_pos, fps, s, source_frames)
+              for s in sides}
+    for _round in range(PELVIS_ROUNDS + 1):
+        miss = {s: reach_plant(rig, skeleton, clip, s, plants[s]) for s in sides}
+        off = np.stack([np.linalg.norm(miss[s], axis=-1) > FOOT_TOL for s in sides])       # (2, F)
+        if _round == PELVIS_ROUNDS or not off.any():
+            break
+        # each frame, the mean of what the feet that miss still miss
+        shift = (miss["left"] * off[0, :, None] + miss["right"] * off[1, :, None]) / np.maximum(off.sum(0), 1)[:, None]
+        clip.root_positions[:] += gaussian_filter1d(shift, PELVIS_SMOOTH, axis=0, mode="nearest")
+    return {s: (np.linalg.norm(miss[s], axis=-1), plants[s][0]) for s in sides}
 
 
 def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, rel_rot: np.ndarray,

@@ -373,21 +373,10 @@ def test_cmu_golf_exaggerated_keeps_its_feet_planted(tmp_path):
     synth command and the PC pad clean it: both feet stay on their plants (within 0.05 cm)
     on at least 85% of the frames the source's own clean-up plants. Before the hip's
     adduction was AAOS's 30 (it was 20), the trail (right) foot was held 5.6 cm off its plant
-    for 103 frames, the hip at its limit. Not met further out: at 0.7 it is 3.2 cm off, at
-    1.0 6.4 (the hips swing past what 30 deg of adduction holds)."""
-    from engine import cleanup, pca as pcam, synth, synth_take
-    from engine.userlib import init_library, load_shots
-    (tmp_path / "golf.bvh").write_bytes(kit.GOLF.read_bytes())
-    init_library(tmp_path)
-    rig, shots = load_shots(tmp_path)
-    src = shots[0]
-    space = pcam.fit_clip(rig, src.clip, "body")
-    sections = synth.shot_sections(src.fk[1][:, rig.bat_joint], src.hit_frame)
-    amount = synth.DEFAULT_AMOUNT["exaggerated"]
-    points = synth.path_from_spec(synth.parse_path_spec({"preset": "exaggerated"}), space, sections)
-    take = synth_take.make(space, points, None, src.clip.fps, src.num_frames, same_timeline=True, detail=True,
-                           preset="exaggerated", amount=amount, sections=sections,
-                           guide=synth.source_path(space), source_hit_frame=src.hit_frame)
+    for 103 frames, the hip at its limit. Further out the hips swing past what 30 deg of
+    adduction holds: see the next test."""
+    from engine import cleanup, synth
+    rig, src, take = _golf_take(tmp_path, synth.DEFAULT_AMOUNT["exaggerated"])
     res = cleanup.cleanup(rig, src.skeleton, take.clip, src.clip, source_hit_frame=src.hit_frame,
                           hit_frame=take.hit_frame)
     own = cleanup.cleanup(rig, src.skeleton, src.clip, src.clip, fix_hand=False)
@@ -402,3 +391,41 @@ def test_cmu_golf_exaggerated_keeps_its_feet_planted(tmp_path):
     planted = res.planted["right"]
     off = np.linalg.norm(kit.fk(file_take)[:, j] - kit.fk(file_src)[:, j], axis=-1) * CMU_UNIT
     assert off[planted].max() < 0.05, off[planted].max()
+
+
+def _golf_take(tmp_path, amount):
+    """The CMU golf swing in a fresh library under ``tmp_path``, and a take of it
+    exaggerated by ``amount`` as the synth command and the PC pad make it."""
+    from engine import pca as pcam, synth, synth_take
+    from engine.userlib import init_library, load_shots
+    (tmp_path / "golf.bvh").write_bytes(kit.GOLF.read_bytes())
+    init_library(tmp_path)
+    rig, shots = load_shots(tmp_path)
+    src = shots[0]
+    space = pcam.fit_clip(rig, src.clip, "body")
+    sections = synth.shot_sections(src.fk[1][:, rig.bat_joint], src.hit_frame)
+    points = synth.path_from_spec(synth.parse_path_spec({"preset": "exaggerated", "amount": amount}), space,
+                                  sections)
+    take = synth_take.make(space, points, None, src.clip.fps, src.num_frames, same_timeline=True, detail=True,
+                           preset="exaggerated", amount=amount, sections=sections,
+                           guide=synth.source_path(space), source_hit_frame=src.hit_frame)
+    return rig, src, take
+
+
+def test_cmu_golf_more_exaggerated_moves_the_hips_not_the_feet(tmp_path):
+    """At 1.0 (the preset's default is 0.4) the hips swing past what the trail hip's
+    adduction lets the leg follow: with the hips left where the take has them, the right
+    foot slid up to 6.4 cm over 102 frames. The hips follow the feet instead
+    (engine.cleanup.feet_on_plants): every plant kept is met within 0.1 cm, and the pelvis
+    moves no more abruptly than the take itself does."""
+    from engine import cleanup
+    rig, src, take = _golf_take(tmp_path, 1.0)
+    res = cleanup.cleanup(rig, src.skeleton, take.clip, src.clip, source_hit_frame=src.hit_frame,
+                          hit_frame=take.hit_frame)
+    for side in ("left", "right"):
+        assert res.foot_error_cm[side].max() < 0.1, (side, res.foot_error_cm[side].max())
+    assert res.planted["right"].sum() > 300
+    moved = np.linalg.norm(res.clip.root_positions - take.clip.root_positions, axis=-1)
+    assert moved.max() > 3.0                                   # it was the hips that gave
+    accel = lambda p: np.linalg.norm(np.diff(p, 2, axis=0), axis=-1).max()
+    assert accel(res.clip.root_positions) <= 1.05 * accel(take.clip.root_positions)

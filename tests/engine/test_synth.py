@@ -190,6 +190,33 @@ def test_cleanup_of_the_source_itself_changes_little(rig):
     assert np.max(np.linalg.norm(a - b, axis=-1)) < 0.1
 
 
+def test_the_hips_follow_feet_their_limits_keep_off_the_plants(rig, monkeypatch):
+    """The new motion swings the hips 45 cm sideways and 20 down over the source's still
+    half: the legs' limits keep the left ankle off its plant (36 cm with the hips left
+    where they are). The root follows the feet instead, smoothly, and moves nowhere the feet
+    reach their plants."""
+    src = _planted_clip(rig)
+    F, half = src.num_frames, src.num_frames // 2
+    new = src.copy()
+    ramp = np.clip((np.arange(F) - half) / 10.0, 0.0, 1.0)
+    new.root_positions[:, [0, 1]] += np.outer(ramp * ramp * (3 - 2 * ramp), [-45.0, -20.0])
+    monkeypatch.setattr(cleanup, "PELVIS_ROUNDS", 0)
+    still = cleanup.cleanup(rig, rig.skeleton, new, src, fix_hand=False)
+    assert still.foot_error_cm["left"].max() > 10.0
+    monkeypatch.undo()
+    res = cleanup.cleanup(rig, rig.skeleton, new, src, fix_hand=False)
+    for side in ("left", "right"):
+        assert np.array_equal(res.planted[side], still.planted[side]), side
+        assert res.foot_error_cm[side].max() < 2 * cleanup.FOOT_TOL, side
+    moved = np.linalg.norm(res.clip.root_positions - new.root_positions, axis=-1)
+    assert moved[:half - 8].max() == 0.0 and moved.max() > 10.0
+    accel = lambda p: np.linalg.norm(np.diff(p, 2, axis=0), axis=-1).max()
+    assert accel(res.clip.root_positions) <= accel(new.root_positions) + 0.5
+    # the source itself: every foot on its plant already, the root where it was
+    own = cleanup.cleanup(rig, rig.skeleton, src, src, fix_hand=False)
+    assert np.array_equal(own.clip.root_positions, src.root_positions)
+
+
 def test_plant_targets_follow_near_plants_and_hold_far_ones():
     F = 30
     src = np.zeros((F, 3))
