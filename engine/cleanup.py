@@ -17,7 +17,9 @@ Three fixes, the first two compiled (engine/cleanup_nb.py, one call per clip; a 
   ankle reaches the source's ankle position (or, where the new motion strides
   elsewhere, holds where it lands), and the foot is turned to its orientation,
   with a short blend at the plant's ends so nothing pops; where the new hips go
-  further from the plant than the leg reaches, the foot leaves it;
+  further from the plant than the leg reaches, the foot leaves it; where the legs'
+  limits keep an ankle off its plant, the hips follow the feet (the root moves by
+  what they miss, smoothed over a few frames);
 * the hit: at the take's hit frame the bat is brought to the source's hit point and its face
   turned to the source's there (:mod:`engine.cleanup_hit`), after the other two.
 
@@ -48,7 +50,7 @@ PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
 PLANT_BLEND = 4        # frames over which a plant fades in and out
 REACH = 0.995          # a plant further from the hip than this share of the leg is left
 FOOT_TOL = 0.05        # cm: a planted ankle further than this off its plant moves the hips ...
-PELVIS_ROUNDS = 12      # ... at most this many times ...
+PELVIS_ROUNDS = 12     # ... at most this many times ...
 PELVIS_SMOOTH = 2.0    # ... by what the feet miss, smoothed over this many frames (Gaussian sigma)
 
 
@@ -260,7 +262,7 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
 
 
 def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
-               source_frames: np.ndarray) -> dict:
+                   source_frames: np.ndarray) -> dict:
     """Both feet onto their plants (:func:`plant_foot`), in place; where a leg's limits keep
     its ankle off its plant (an exaggerated golf swing turns the hips past what the trail
     hip's adduction follows), the hips follow the feet: the root moves by what the feet
