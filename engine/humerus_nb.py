@@ -121,9 +121,10 @@ def open_window(local, hold):
     """Set the hold's window for a frame whose start pose is ``local (n,4)``: its range
     taken out to the start's own axial rotation where the start lies past it."""
     idx, rng, window = hold
-    window[0], window[1] = rng[0], rng[1]
-    if idx[1] < 0:
+    if idx[1] < 0:      # nothing held: the window all round (a [0, 0] one had the two-arm
+        release(hold)   # solve swing the chain's last joint, index -1, on capture rigs)
         return
+    window[0], window[1] = rng[0], rng[1]
     hy, hz = _humerus(_relative(local, idx), idx[2])
     axial = _axial(hy, hz)
     lo, hi = _allowed(hy[1], window)

@@ -219,3 +219,22 @@ def test_adaptation_leaves_far_fewer_arms_turned_past_the_range(rig, library, na
         assert h[3] <= f[3] + 0.5
         untouched = h[5] == 0.0
         assert np.array_equal(h[4][untouched], shot.clip.local_rotations[untouched])
+
+
+def test_a_chain_without_an_upper_arm_is_never_swung(rig):
+    """A capture rig's chains hold nothing (``no_hold``): once its frame's window is opened,
+    the hold (as the two-arm solve calls it) leaves any pose as it is. It had the window
+    [0, 0] and swung the chain's last joint (index -1) in 127 of these 200 poses."""
+    from engine.fk_nb import chain_fk
+    from engine.humerus_nb import hold_axial, no_hold
+    ch = chain_arrays(rig, "left_arm")
+    n = len(ch.joints)
+    for _ in range(200):
+        local = _rotations(n)
+        hold = no_hold()
+        open_window(local, hold)
+        g_rot, g_pos = np.empty((n, 4)), np.empty((n, 3))
+        eff = chain_fk((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), ch.offsets, ch.eff_off, local, g_rot, g_pos)
+        before = local.copy()
+        assert not hold_axial((1.0, 0.0, 0.0, 0.0), local, np.zeros((n, 3)), ch.lo, ch.hi, hold, g_rot, g_pos, eff)
+        assert np.array_equal(local, before)
