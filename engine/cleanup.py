@@ -234,21 +234,25 @@ def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     return planted, t_pos, src_global_rot[source_frames, ankle]
 
 
-def reach_plant(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant) -> np.ndarray:
+def reach_plant(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant, g_rot, g_pos) -> None:
     """The leg of ``side`` solved toward its ``plant`` (:func:`foot_plant`), in place, with
-    a short blend at the plant's ends. Returns ``(F, 3)`` what the ankle still misses, cm
-    (target - ankle; 0 where not planted)."""
+    a short blend at the plant's ends. ``g_rot``/``g_pos``: the clip's FK (the other leg
+    may have been solved since: the legs hang apart from the hips)."""
     planted, t_pos, t_rot = plant
     w = _plant_weight(planted)
     if not w.any():
-        return np.zeros((clip.num_frames, 3))
+        return
     ankle = rig.chains[f"{side}_leg"].effector
-    g_rot, g_pos = _fk(skeleton, clip)
     target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
     target_rot = quat.slerp(g_rot[:, ankle], t_rot, w)
     _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, target, target_rot, w > 0)
-    g_pos = _fk(skeleton, clip)[1]
-    return np.where(planted[:, None], t_pos - g_pos[:, ankle], 0.0)
+
+
+def _missed(rig: Rig, side: str, plant, g_pos) -> np.ndarray:
+    """``(F, 3)`` what the ankle still misses of its plant, cm (target - ankle; 0 where not
+    planted), from the clip's FK ``g_pos``."""
+    planted, t_pos, _ = plant
+    return np.where(planted[:, None], t_pos - g_pos[:, rig.chains[f"{side}_leg"].effector], 0.0)
 
 
 def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
@@ -258,7 +262,8 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     Returns ``(error (F,), planted (F,))``: the remaining ankle error in cm
     (0 where not planted) and the planted frames."""
     plant = foot_plant(rig, skeleton, clip, src_global_rot, src_global_pos, fps, side, source_frames)
-    return np.linalg.norm(reach_plant(rig, skeleton, clip, side, plant), axis=-1), plant[0]
+    reach_plant(rig, skeleton, clip, side, plant, *_fk(skeleton, clip))
+    return np.linalg.norm(_missed(rig, side, plant, _fk(skeleton, clip)[1]), axis=-1), plant[0]
 
 
 def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
@@ -272,7 +277,11 @@ def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src
     plants = {s: foot_plant(rig, skeleton, clip, src_global_rot, src_global_pos, fps, s, source_frames)
               for s in sides}
     for _round in range(PELVIS_ROUNDS + 1):
-        miss = {s: reach_plant(rig, skeleton, clip, s, plants[s]) for s in sides}
+        g_rot, g_pos = _fk(skeleton, clip)
+        for s in sides:
+            reach_plant(rig, skeleton, clip, s, plants[s], g_rot, g_pos)
+        g_pos = _fk(skeleton, clip)[1]
+        miss = {s: _missed(rig, s, plants[s], g_pos) for s in sides}
         off = np.stack([np.linalg.norm(miss[s], axis=-1) > FOOT_TOL for s in sides])       # (2, F)
         if _round == PELVIS_ROUNDS or not off.any():
             break
