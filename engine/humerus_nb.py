@@ -195,25 +195,16 @@ def held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_p
     """:func:`engine.fk_nb.chain_fk` of the pose after :func:`hold_axial` held it (in place):
     the solvers' FK after a step. Returns the effector."""
     eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-    ka, window = hold[0][1], hold[2]
+    idx, window = hold[0], hold[2]
+    ka, kc = idx[1], idx[0]
     if ka < 0 or window[1] - window[0] >= 2.0 * math.pi:
         return eff
-    # the check here, the swing's call only when it is past (a call with a dozen arrays costs)
-    reading = _arm_reading(prot, local, hold, g_rot)
-    if reading[2] > 0.0 and _swing_arm(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff, reading):
+    # the check here, the hold's call only when it is past (a call with a dozen arrays costs)
+    chest = prot if kc < 0 else q_at(g_rot, kc)
+    out, _ = _excess(qmul(qconj(chest), qmul(q_at(g_rot, ka), q_at(local, ka + 1))), idx[2], window)
+    if out > 0.0 and hold_axial(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff):
         eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
     return eff
-
-
-@njit(cache=True)
-def _arm_reading(prot, local, hold, g_rot):
-    """(the chest's global rotation inverted, the roll joint's global rotation, radians the
-    humerus lies outside the hold's window) of a pose whose FK ``g_rot`` is fresh."""
-    idx, window = hold[0], hold[2]
-    kc, ka = idx[0], idx[1]
-    chest_inv = qconj(prot if kc < 0 else q_at(g_rot, kc))
-    hum = qmul(q_at(g_rot, ka), q_at(local, ka + 1))
-    return chest_inv, hum, _excess(qmul(chest_inv, hum), idx[2], window)[0]
 
 
 @njit(cache=True)
@@ -240,15 +231,11 @@ def hold_axial(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff):
     Euler limits clamp the swing to no gain. A turn about the
     bone instead would move the effector, and the solvers' next step would turn it back:
     measured, it left more arms past the range and cost more."""
-    return _swing_arm(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff, _arm_reading(prot, local, hold, g_rot))
-
-
-@njit(cache=True)
-def _swing_arm(prot, local, euler, lo, hi, hold, g_rot, g_pos, eff, reading):
-    """:func:`hold_axial` given the pose's :func:`_arm_reading`."""
     idx, _, window = hold
-    ka, side = idx[1], idx[2]
-    chest_inv, hum, out = reading
+    kc, ka, side = idx[0], idx[1], idx[2]
+    chest_inv = qconj(prot if kc < 0 else q_at(g_rot, kc))
+    hum = qmul(q_at(g_rot, ka), q_at(local, ka + 1))
+    out, _ = _excess(qmul(chest_inv, hum), side, window)
     u = vsub(eff, v_at(g_pos, ka))
     n = vnorm(u)
     if out == 0.0 or n < 1e-6:
