@@ -17,7 +17,8 @@ Three fixes, the first two compiled (engine/cleanup_nb.py, one call per clip; a 
   ankle reaches the source's ankle position (or, where the new motion strides
   elsewhere, holds where it lands), and the foot is turned to its orientation,
   with a short blend at the plant's ends so nothing pops; where the new hips go
-  further from the plant than the leg reaches, the foot leaves it; where the legs'
+  further from the plant than the leg reaches, the heel lifts and the ball of the
+  foot stays (:mod:`engine.heel`); where the legs'
   limits keep an ankle off its plant, the hips follow the feet (the root moves by
   what they miss, smoothed over a few frames);
 * the hit: at the take's hit frame the bat is brought to the source's hit point and its face
@@ -31,11 +32,12 @@ Each returns the remaining error so the caller can show it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from . import quat
+from . import heel, quat
 from .rig import Rig
 from .adapt import ORIENT_TOL
 from .ccd import chain_arrays, limit_euler
@@ -48,7 +50,8 @@ from .synth_detail import frame_map
 PLANT_SPEED = 15.0     # cm/s: slower than this counts as planted ...
 PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
 PLANT_BLEND = 4        # frames over which a plant fades in and out
-REACH = 0.995          # a plant further from the hip than this share of the leg is left
+REACH = 0.995          # a plant further from the hip than this share of the leg lifts the heel ...
+LIFT_TO = 0.99         # ... until the ankle is this far (CCD straightens a leg slowly near 1)
 FOOT_TOL = 0.05        # cm: a planted ankle further than this off its plant moves the hips ...
 PELVIS_ROUNDS = 12     # ... at most this many times ...
 PELVIS_SMOOTH = 2.0    # ... by what the feet miss, smoothed over this many frames (Gaussian sigma)
@@ -187,35 +190,56 @@ def _plant_weight(planted: np.ndarray, blend: int = PLANT_BLEND) -> np.ndarray:
 
 
 PLANT_FOLLOW = 15.0   # cm: a plant further than this from the source's stays where the new motion put it
+PLANT_ROLL = 5.0      # cm: runs whose blends meet are one plant if the source's ankle moves less between
 
 
 def plant_targets(foot: np.ndarray, source_foot: np.ndarray, planted: np.ndarray) -> np.ndarray:
-    """Ankle targets ``(F, 3)`` for each planted run of ``planted (F,)``.
+    """Ankle targets ``(F, 3)`` for each plant of ``planted (F,)``: a planted run, or runs
+    whose blends meet (gaps of at most 2 PLANT_BLEND frames) with the source's ankle moved
+    less than PLANT_ROLL between them (a foot rolling on the ground, as the CMU golfer's
+    lead foot does, is still for a few frames at a time).
 
-    Where the new motion plants the foot near the source's plant (the run's mean
+    Where the new motion plants the foot near the source's plant (the plant's mean
     within PLANT_FOLLOW), the source's ankle positions; where it plants it
     elsewhere (an aborted shot never strides), the foot is held still at the
-    new motion's position where the run starts (it lands there: the hips
+    new motion's position where the plant starts (it lands there: the hips
     are then behind it, so the leg reaches it), at the source's height, so it
     neither slides nor gets dragged to a stride that no longer happens.
-    The hold target also covers the blend frames either side of the run."""
+    The hold target also covers the blend frames either side of the plant. Runs of one
+    plant are decided together: decided apart, a hold could take over the blend frames
+    at the end of a run that follows the source, and the foot slid there, planted."""
     target = source_foot.copy()
     F = len(planted)
     edges = np.flatnonzero(np.diff(np.concatenate([[0], planted.astype(np.int8), [0]])))
-    for a, b in zip(edges[::2], edges[1::2]):          # runs [a, b)
-        here, there = foot[a:b].mean(axis=0), source_foot[a:b].mean(axis=0)
+    starts, ends = edges[::2], edges[1::2]
+    rolled = np.linalg.norm((source_foot[starts[1:]] - source_foot[ends[:-1] - 1])[:, [0, 2]], axis=-1)
+    apart = np.flatnonzero((starts[1:] - ends[:-1] > 2 * PLANT_BLEND) | (rolled > PLANT_ROLL))  # between plants
+    firsts, lasts = (starts[np.r_[0, apart + 1]], ends[np.r_[apart, -1]]) if starts.size else ([], [])
+    for i, (a, b) in enumerate(zip(firsts, lasts)):
+        sel = planted[a:b]
+        here, there = foot[a:b][sel].mean(axis=0), source_foot[a:b][sel].mean(axis=0)
         if np.linalg.norm((here - there)[[0, 2]]) <= PLANT_FOLLOW:
             continue
         hold = np.array([foot[a, 0], there[1], foot[a, 2]])
-        lo, hi = max(a - PLANT_BLEND, 0), min(b + PLANT_BLEND, F)
+        # the blends, but not into the next or the last plant
+        lo = max(a - PLANT_BLEND, lasts[i - 1] if i else 0)
+        hi = min(b + PLANT_BLEND, firsts[i + 1] if i + 1 < len(firsts) else F)
         target[lo:hi] = hold
     return target
 
 
+class Plant(NamedTuple):
+    """One foot's plant over a clip's frames (:func:`foot_plant`)."""
+    planted: np.ndarray      # (F,) bool
+    ankle: np.ndarray        # (F, 3) cm: the ankle's target
+    foot: np.ndarray         # (F, 4): the foot's target rotation, heel lifted
+    heel_deg: np.ndarray     # (F,) the heel's lift (engine.heel), 0 within the leg's reach
+    flat_foot: np.ndarray    # (F, 4): the foot's rotation before the lift
+
+
 def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
-               side: str, source_frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One foot's plant in ``clip``: ``(planted (F,) bool, ankle targets (F, 3), foot
-    rotations (F, 4))`` where the source's foot is planted (:func:`plant_targets`)."""
+               side: str, source_frames: np.ndarray) -> Plant:
+    """One foot's plant in ``clip``, where the source's foot is planted (:func:`plant_targets`)."""
     chain = rig.chains[f"{side}_leg"]
     ankle = chain.effector
     # runs only: a foot slow and low for a frame or two is passing the ground, not planted
@@ -227,32 +251,39 @@ def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     planted = src_planted[source_frames]
     g_rot, g_pos = _fk(skeleton, clip)
     t_pos = plant_targets(g_pos[:, ankle], src_global_pos[source_frames, ankle], planted)
+    t_rot = src_global_rot[source_frames, ankle]
     # where the new motion takes the hip further from the plant than the leg reaches (an
-    # exaggerated drive's lunge), the foot leaves it, heel up, as a batsman's back foot does
-    leg_cm = np.linalg.norm(skeleton.offsets[chain.joints[1:]], axis=-1).sum()
-    planted = planted & (np.linalg.norm(t_pos - g_pos[:, chain.joints[0]], axis=-1) < REACH * leg_cm)
-    return planted, t_pos, src_global_rot[source_frames, ankle]
+    # exaggerated drive's lunge), the heel lifts and the ball of the foot stays
+    reach = REACH * np.linalg.norm(skeleton.offsets[chain.joints[1:]], axis=-1).sum()
+    hip = g_pos[:, chain.joints[0]]
+    ball = heel.ball_joint(rig, skeleton, side)
+    if ball is None:        # no toe to stand on: the foot leaves the plant
+        planted = planted & (np.linalg.norm(t_pos - hip, axis=-1) < reach)
+        return Plant(planted, t_pos, t_rot, np.zeros(len(planted)), t_rot)
+    ball_offset = src_global_pos[source_frames, ball] - src_global_pos[source_frames, ankle]
+    lifted_pos, lifted_rot, heel_deg, reached = heel.lift_heels(t_pos, t_rot, ball_offset, hip, reach,
+                                                                LIFT_TO * reach / REACH)
+    # beyond what the lift brings back, the foot leaves the plant
+    return Plant(planted & reached, lifted_pos, lifted_rot, heel_deg, t_rot)
 
 
-def reach_plant(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant, g_rot, g_pos) -> None:
+def reach_plant(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant: Plant, g_rot, g_pos) -> None:
     """The leg of ``side`` solved toward its ``plant`` (:func:`foot_plant`), in place, with
     a short blend at the plant's ends. ``g_rot``/``g_pos``: the clip's FK (the other leg
     may have been solved since: the legs hang apart from the hips)."""
-    planted, t_pos, t_rot = plant
-    w = _plant_weight(planted)
+    w = _plant_weight(plant.planted)
     if not w.any():
         return
     ankle = rig.chains[f"{side}_leg"].effector
-    target = g_pos[:, ankle] + (t_pos - g_pos[:, ankle]) * w[:, None]
-    target_rot = quat.slerp(g_rot[:, ankle], t_rot, w)
+    target = g_pos[:, ankle] + (plant.ankle - g_pos[:, ankle]) * w[:, None]
+    target_rot = quat.slerp(g_rot[:, ankle], plant.foot, w)
     _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, target, target_rot, w > 0)
 
 
-def _missed(rig: Rig, side: str, plant, g_pos) -> np.ndarray:
+def _missed(rig: Rig, side: str, plant: Plant, g_pos) -> np.ndarray:
     """``(F, 3)`` what the ankle still misses of its plant, cm (target - ankle; 0 where not
     planted), from the clip's FK ``g_pos``."""
-    planted, t_pos, _ = plant
-    return np.where(planted[:, None], t_pos - g_pos[:, rig.chains[f"{side}_leg"].effector], 0.0)
+    return np.where(plant.planted[:, None], plant.ankle - g_pos[:, rig.chains[f"{side}_leg"].effector], 0.0)
 
 
 def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
@@ -263,7 +294,18 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     (0 where not planted) and the planted frames."""
     plant = foot_plant(rig, skeleton, clip, src_global_rot, src_global_pos, fps, side, source_frames)
     reach_plant(rig, skeleton, clip, side, plant, *_fk(skeleton, clip))
-    return np.linalg.norm(_missed(rig, side, plant, _fk(skeleton, clip)[1]), axis=-1), plant[0]
+    g_rot, g_pos = _fk(skeleton, clip)
+    _flatten_toes(rig, skeleton, clip, side, plant, g_rot)
+    return np.linalg.norm(_missed(rig, side, plant, g_pos), axis=-1), plant.planted
+
+
+def _flatten_toes(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant: Plant, g_rot) -> None:
+    """Where ``plant`` lifted the heel, the toes turned back flat on the ground (engine.heel),
+    in place; ``g_rot``: the clip's global rotations with the leg solved."""
+    ball = heel.ball_joint(rig, skeleton, side)
+    if ball is not None and plant.heel_deg.any():
+        weight = _plant_weight(plant.planted) * (plant.heel_deg > 0)
+        heel.flatten_toes(rig, skeleton, clip.local_rotations, g_rot, ball, plant.flat_foot, weight)
 
 
 def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
@@ -280,7 +322,7 @@ def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src
         g_rot, g_pos = _fk(skeleton, clip)
         for s in sides:
             reach_plant(rig, skeleton, clip, s, plants[s], g_rot, g_pos)
-        g_pos = _fk(skeleton, clip)[1]
+        g_rot, g_pos = _fk(skeleton, clip)
         miss = {s: _missed(rig, s, plants[s], g_pos) for s in sides}
         off = np.stack([np.linalg.norm(miss[s], axis=-1) > FOOT_TOL for s in sides])       # (2, F)
         if _round == PELVIS_ROUNDS or not off.any():
@@ -288,7 +330,9 @@ def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src
         # each frame, the mean of what the feet that miss still miss
         shift = (miss["left"] * off[0, :, None] + miss["right"] * off[1, :, None]) / np.maximum(off.sum(0), 1)[:, None]
         clip.root_positions[:] += gaussian_filter1d(shift, PELVIS_SMOOTH, axis=0, mode="nearest")
-    return {s: (np.linalg.norm(miss[s], axis=-1), plants[s][0]) for s in sides}
+    for s in sides:         # the toes come after the legs: a toe moves nothing the legs reach for
+        _flatten_toes(rig, skeleton, clip, s, plants[s], g_rot)
+    return {s: (np.linalg.norm(miss[s], axis=-1), plants[s].planted) for s in sides}
 
 
 def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, rel_rot: np.ndarray,

@@ -3,7 +3,7 @@ import itertools
 import numpy as np
 import pytest
 
-from engine import bvh, cleanup, quat, synth, synth_detail
+from engine import bvh, cleanup, heel, quat, synth, synth_detail
 from engine import pca as pcam
 from engine.library import conform_to_rig
 from engine.skeleton import clip_fk
@@ -162,17 +162,31 @@ def test_cleanup_reattaches_hand_and_plants_feet(rig):
     assert np.all(np.isfinite(res.clip.local_rotations))
     assert np.mean(res.hand_error_cm) < 0.5 * np.mean(before) + 0.1
     half = src.num_frames // 2
+    out_rot, out_pos = clip_fk(rig.skeleton, res.clip)
+    lifts = 0
     for side in ("left", "right"):
         pl = res.planted[side]
         chain = rig.chains[f"{side}_leg"]
         ankle = chain.effector
-        # the still half is planted, but where the exaggerated hips went beyond the leg's reach
+        # the still half is planted throughout; where the exaggerated hips went beyond the
+        # leg's reach, the heel lifts and the ball of the foot stays where the source has it
         leg_cm = np.linalg.norm(rig.skeleton.offsets[chain.joints[1:]], axis=-1).sum()
         far = np.linalg.norm(s_pos[:, ankle] - g_pos[:, chain.joints[0]], axis=1) >= cleanup.REACH * leg_cm
-        assert np.array_equal(pl[half + 2:-1], ~far[half + 2:-1]) and pl[half + 2:-1].mean() > 0.7
+        assert pl[half + 2:-1].all()
+        lifted = far & pl
+        ball = heel.ball_joint(rig, rig.skeleton, side)
+        ball_off = np.linalg.norm(out_pos[lifted, ball] - s_pos[lifted, ball], axis=-1)
+        # (the ankle's limits may hold the foot a little short of the lift: a cm at most)
+        assert ball_off.size == 0 or (np.median(ball_off) < 0.01 and ball_off.max() < 1.0)
+        assert np.all(out_pos[lifted, ankle, 1] > s_pos[lifted, ankle, 1])                  # heel up
+        foot_turn = quat.angle_between(out_rot[lifted, ankle], s_rot[lifted, ankle])
+        toe_turn = quat.angle_between(out_rot[lifted, ball], s_rot[lifted, ball])
+        assert np.all(toe_turn < foot_turn)                                 # the toes turned back
+        lifts += int(lifted.sum())
         was = np.linalg.norm(g_pos[:, ankle] - s_pos[:, ankle], axis=1)
         assert np.all(res.foot_error_cm[side][pl] <= was[pl] + 1e-6)
-        assert res.foot_error_cm[side][pl].max() < 0.01          # the plants kept are met
+        assert res.foot_error_cm[side][pl].max() < cleanup.FOOT_TOL          # the plants are met
+    assert lifts > 0            # (the heel lifts somewhere: the test sees what it is for)
     # the untouched clip is unchanged; toggles off change nothing
     assert not np.allclose(res.clip.local_rotations, anim.local_rotations)
     none = cleanup.cleanup(rig, rig.skeleton, anim, src, fix_hand=False, plant_feet=False)
@@ -222,14 +236,34 @@ def test_plant_targets_follow_near_plants_and_hold_far_ones():
     src = np.zeros((F, 3))
     src[:, 2] = 50.0                                   # the source plants its foot at z = 50
     planted = np.zeros(F, bool)
-    planted[5:12] = planted[18:26] = True
+    planted[3:9] = planted[18:26] = True               # (blends apart: two plants)
     foot = np.zeros((F, 3))
     foot[:, 2] = np.linspace(0, 30, F)                 # the new motion drifts, never reaching z = 50
     foot[18:26, 2] = 48.0                              # ... except in the second plant
     t = cleanup.plant_targets(foot, src, planted)
     assert np.allclose(t[18:26], src[18:26])           # near: the source's plant
-    assert np.allclose(t[5:12], t[5])                  # far: held still ...
-    assert np.isclose(t[5, 2], foot[5, 2]) and t[5, 1] == 0.0   # ... where it lands, at ground height
+    assert np.allclose(t[3:9], t[3])                   # far: held still ...
+    assert np.isclose(t[3, 2], foot[3, 2]) and t[3, 1] == 0.0   # ... where it lands, at ground height
+
+
+def test_runs_of_a_foot_rolling_on_the_ground_are_one_plant():
+    """The source's foot still for a few frames at a time, rolling a cm or two between (the
+    CMU golfer's lead foot): its runs are one plant, so a hold that one of them calls for
+    holds them all, and no target jumps between them. A step between runs parts them."""
+    F = 40
+    src = np.zeros((F, 3))
+    src[:, 0] = np.linspace(0.0, 2.0, F)               # rolls 2 cm over the whole take
+    planted = np.zeros(F, bool)
+    planted[5:15] = planted[17:35] = True
+    foot = src.copy()
+    foot[17:, 2] += 30.0                               # the new motion strides the second run away
+    t = cleanup.plant_targets(foot, src, planted)
+    assert np.abs(np.diff(t[5:35], axis=0)).max() < 1e-9       # one hold over both runs
+    stepped = src.copy()
+    stepped[16:, 0] += 20.0                            # the source steps between the runs
+    t = cleanup.plant_targets(foot, stepped, planted)
+    assert np.allclose(t[5:15], stepped[5:15])         # the first run follows the source ...
+    assert np.linalg.norm(t[17] - stepped[17]) > 20.0  # ... the second holds where the new foot lands
 
 
 def test_a_foot_slow_and_low_for_a_frame_is_not_planted(rig):
