@@ -15,8 +15,7 @@ import numpy as np
 from . import quat
 from .ccd import limit_euler
 
-HEEL_MAX = 60.0     # deg: a batsman's back foot up on its toes; further, the hips follow
-HEEL_STEP = 0.25    # deg: the lift is searched on this grid
+HEEL_MAX = 60.0     # deg: a batsman's back foot up on its toes; further, the foot lets go
 
 UP = np.array([0.0, 1.0, 0.0])
 
@@ -44,23 +43,40 @@ def lift_heels(t_pos: np.ndarray, t_rot: np.ndarray, ball_offset: np.ndarray, hi
     far = np.flatnonzero(np.linalg.norm(t_pos - hip_pos, axis=-1) > reach_cm)
     if far.size == 0:
         return t_pos, t_rot, heel, reached
-    to_ankle = -ball_offset[far]                                   # (n, 3) ball -> ankle
-    across = np.cross(UP, ball_offset[far] * [1.0, 0.0, 1.0])      # turning +about it raises the heel
-    ok_axis = np.linalg.norm(across, axis=-1) > 1e-6               # a foot pointing straight down: left
-    angles = np.radians(np.arange(0.0, HEEL_MAX + HEEL_STEP / 2, HEEL_STEP))        # (K,)
-    turns = quat.from_axis_angle(across[:, None, :], np.broadcast_to(angles, (len(far), len(angles))))
     ball = t_pos[far] + ball_offset[far]
-    ankles = ball[:, None] + quat.rotate(turns, np.broadcast_to(to_ankle[:, None], turns.shape[:-1] + (3,)))
-    dist = np.linalg.norm(ankles - hip_pos[far, None], axis=-1)                   # (n, K)
-    within = dist <= lift_to_cm
-    k = np.where(within.any(1), within.argmax(1), dist.argmin(1))
-    k = np.where(ok_axis, k, 0)
-    rows = np.arange(len(far))
-    t_pos[far] = ankles[rows, k]
-    t_rot[far] = quat.normalize(quat.mul(turns[rows, k], t_rot[far]))
-    heel[far] = np.degrees(angles[k])
-    reached[far] = dist[rows, k] <= reach_cm
+    across = np.cross(UP, ball_offset[far] * [1.0, 0.0, 1.0])      # turning +about it raises the heel
+    norm = np.linalg.norm(across, axis=-1, keepdims=True)
+    axis = across / np.maximum(norm, 1e-9)
+    theta = least_lift(axis, -ball_offset[far], ball - hip_pos[far], lift_to_cm, np.radians(HEEL_MAX))
+    theta = np.where(norm[:, 0] > 1e-6, theta, 0.0)                # a foot pointing straight down: left
+    turns = quat.from_axis_angle(axis, theta)
+    t_pos[far] = ball + quat.rotate(turns, -ball_offset[far])
+    t_rot[far] = quat.normalize(quat.mul(turns, t_rot[far]))
+    heel[far] = np.degrees(theta)
+    reached[far] = np.linalg.norm(t_pos[far] - hip_pos[far], axis=-1) <= reach_cm + 1e-9
     return t_pos, t_rot, heel, reached
+
+
+def least_lift(axis: np.ndarray, to_ankle: np.ndarray, from_hip: np.ndarray, reach_cm: float,
+               most: float) -> np.ndarray:
+    """(n,) the least turn (radians, in [0, ``most``]) about the unit ``axis (n,3)`` through the
+    ball of the foot that brings the ankle (``to_ankle (n,3)`` from the ball) within
+    ``reach_cm`` of the hip (``from_hip (n,3)``: hip -> ball); where none does, the turn in
+    [0, ``most``] that brings it closest. Closed form: turned by t the squared distance is
+    ``e + b cos t + c sin t`` (Rodrigues)."""
+    along = np.sum(axis * to_ankle, -1)
+    b = 2.0 * (np.sum(from_hip * to_ankle, -1) - along * np.sum(axis * from_hip, -1))
+    c = 2.0 * np.sum(from_hip * np.cross(axis, to_ankle), -1)
+    e = np.sum(from_hip ** 2, -1) + np.sum(to_ankle ** 2, -1) + 2.0 * along * np.sum(axis * from_hip, -1)
+    m, phase = np.hypot(b, c), np.arctan2(c, b)         # b cos t + c sin t = m cos(t - phase)
+    ratio = (reach_cm ** 2 - e) / np.maximum(m, 1e-12)
+    # the first t >= 0 where m cos(t - phase) comes down to reach^2 - e
+    first = np.mod(phase + np.arccos(np.clip(ratio, -1.0, 1.0)), 2 * np.pi)
+    closest = np.mod(phase + np.pi, 2 * np.pi)         # where m cos(t - phase) is least
+    # not within [0, most]: whichever end is closer (the distance has one minimum a turn)
+    at_most = m * np.cos(most - phase) < b
+    fallback = np.where(closest <= most, closest, np.where(at_most, most, 0.0))
+    return np.where((np.abs(ratio) <= 1.0) & (first <= most), first, fallback)
 
 
 def flatten_toes(rig, skeleton, local_rotations: np.ndarray, g_rot: np.ndarray, ball: int,
