@@ -52,6 +52,7 @@ PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
 PLANT_BLEND = 4        # frames over which a plant fades in and out
 REACH = 0.995          # a plant further from the hip than this share of the leg lifts the heel ...
 LIFT_TO = 0.99         # ... until the ankle is this far (CCD straightens a leg slowly near 1)
+BALL_ROUNDS = 4        # re-aims of a lifted ankle whose foot the ankle's limits stop short
 FOOT_TOL = 0.05        # cm: a planted ankle further than this off its plant moves the hips ...
 PELVIS_ROUNDS = 12     # ... at most this many times ...
 PELVIS_SMOOTH = 2.0    # ... by what the feet miss, smoothed over this many frames (Gaussian sigma)
@@ -64,6 +65,7 @@ class CleanupResult:
     hand_error_deg: np.ndarray | None = None    # (F,)
     foot_error_cm: dict = field(default_factory=dict)   # side -> (F,) ankle error, 0 where not planted
     planted: dict = field(default_factory=dict)         # side -> (F,) bool
+    heel_deg: dict = field(default_factory=dict)        # side -> (F,) the heel's lift, planted frames
     face_angle_deg: float | None = None                 # the face at the take's hit vs the source's, after
     hit_frame: int | None = None                        # the take's hit frame, where it meets the ball
     bat_error_cm: float | None = None                   # the bat there vs the source's hit point, after
@@ -77,6 +79,10 @@ class CleanupResult:
         for side, e in self.foot_error_cm.items():
             out[f"{side}_foot_error_cm_max"] = float(e.max()) if e.size else 0.0
             out[f"{side}_foot_planted_frames"] = int(self.planted[side].sum())
+            if side in self.heel_deg:
+                lift = self.heel_deg[side]
+                out[f"{side}_heel_lifted_frames"] = int((lift > 0).sum())
+                out[f"{side}_heel_lift_deg_max"] = float(lift.max()) if lift.size else 0.0
         if self.face_angle_deg is not None:
             out["face_angle_deg"] = self.face_angle_deg
             out["hit_frame"] = self.hit_frame
@@ -104,9 +110,10 @@ def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bo
     res = CleanupResult(out)
     if plant_feet:
         # feet first: the hand fix does not move the legs, the leg fix moves nothing above the hips
-        for side, (err, planted) in feet_on_plants(rig, skeleton, out, src_rot, src_pos, source.fps, m).items():
+        for side, (err, planted, lift) in feet_on_plants(rig, skeleton, out, src_rot, src_pos, source.fps, m).items():
             res.foot_error_cm[side] = err
             res.planted[side] = planted
+            res.heel_deg[side] = np.where(planted, lift, 0.0)
     if fix_hand:
         res.hand_error_cm, res.hand_error_deg = reattach_right_hand(rig, skeleton, out, src_rot[m], src_pos[m])
     if source_hit_frame is not None:
@@ -235,6 +242,7 @@ class Plant(NamedTuple):
     foot: np.ndarray         # (F, 4): the foot's target rotation, heel lifted
     heel_deg: np.ndarray     # (F,) the heel's lift (engine.heel), 0 within the leg's reach
     flat_foot: np.ndarray    # (F, 4): the foot's rotation before the lift
+    ball: np.ndarray         # (F, 3) cm: the ball of the foot's place, which a lift keeps
 
 
 def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
@@ -259,12 +267,12 @@ def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     ball = heel.ball_joint(rig, skeleton, side)
     if ball is None:        # no toe to stand on: the foot leaves the plant
         planted = planted & (np.linalg.norm(t_pos - hip, axis=-1) < reach)
-        return Plant(planted, t_pos, t_rot, np.zeros(len(planted)), t_rot)
+        return Plant(planted, t_pos, t_rot, np.zeros(len(planted)), t_rot, t_pos)
     ball_offset = src_global_pos[source_frames, ball] - src_global_pos[source_frames, ankle]
     lifted_pos, lifted_rot, heel_deg, reached = heel.lift_heels(t_pos, t_rot, ball_offset, hip, reach,
-                                                                LIFT_TO * reach / REACH)
+                                                                LIFT_TO * reach / REACH, _plant_weight(planted) > 0)
     # beyond what the lift brings back, the foot leaves the plant
-    return Plant(planted & reached, lifted_pos, lifted_rot, heel_deg, t_rot)
+    return Plant(planted & reached, lifted_pos, lifted_rot, heel_deg, t_rot, t_pos + ball_offset)
 
 
 def reach_plant(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant: Plant, g_rot, g_pos) -> None:
@@ -278,6 +286,27 @@ def reach_plant(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant: Plan
     target = g_pos[:, ankle] + (plant.ankle - g_pos[:, ankle]) * w[:, None]
     target_rot = quat.slerp(g_rot[:, ankle], plant.foot, w)
     _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, target, target_rot, w > 0)
+    _keep_ball(rig, skeleton, clip, side, plant, g_rot, g_pos, target_rot)
+
+
+def _keep_ball(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant: Plant, g_rot, g_pos,
+               target_rot) -> None:
+    """Where the ankle's limits stop a lifted foot short of its turn (so the ball of the foot
+    leaves its place), the ankle's target moved to where the foot as it turned puts the ball
+    back, in ``plant`` (in place), and the leg solved again, in place. ``g_rot``/``g_pos``:
+    the FK :func:`reach_plant` solved from (the hips have not moved since)."""
+    ball = heel.ball_joint(rig, skeleton, side)
+    lifted = plant.planted & (plant.heel_deg > 0)
+    if ball is None or not lifted.any():
+        return
+    ankle = rig.chains[f"{side}_leg"].effector
+    for _ in range(BALL_ROUNDS):      # (the foot turns a little differently on the moved shin)
+        now = _fk(skeleton, clip)[1]
+        off = lifted & (np.linalg.norm(now[:, ball] - plant.ball, axis=-1) > 0.2 * FOOT_TOL)
+        if not off.any():
+            return
+        plant.ankle[off] = plant.ball[off] - (now[off, ball] - now[off, ankle])
+        _solve_leg(rig, skeleton, clip, f"{side}_leg", g_rot, g_pos, plant.ankle, target_rot, off)
 
 
 def _missed(rig: Rig, side: str, plant: Plant, g_pos) -> np.ndarray:
@@ -314,7 +343,7 @@ def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src
     its ankle off its plant (an exaggerated golf swing turns the hips past what the trail
     hip's adduction follows), the hips follow the feet: the root moves by what the feet
     still miss, smoothed over a few frames so the pelvis does not jerk, and the legs are
-    solved again. Returns ``{side: (error (F,) cm, planted (F,))}``."""
+    solved again. Returns ``{side: (error (F,) cm, planted (F,), heel lift (F,) deg)}``."""
     sides = ("left", "right")
     plants = {s: foot_plant(rig, skeleton, clip, src_global_rot, src_global_pos, fps, s, source_frames)
               for s in sides}
@@ -332,7 +361,7 @@ def feet_on_plants(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src
         clip.root_positions[:] += gaussian_filter1d(shift, PELVIS_SMOOTH, axis=0, mode="nearest")
     for s in sides:         # the toes come after the legs: a toe moves nothing the legs reach for
         _flatten_toes(rig, skeleton, clip, s, plants[s], g_rot)
-    return {s: (np.linalg.norm(miss[s], axis=-1), plants[s].planted) for s in sides}
+    return {s: (np.linalg.norm(miss[s], axis=-1), plants[s].planted, plants[s].heel_deg) for s in sides}
 
 
 def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, rel_rot: np.ndarray,

@@ -28,7 +28,8 @@ def ball_joint(rig, skeleton, side: str) -> int | None:
 
 
 def lift_heels(t_pos: np.ndarray, t_rot: np.ndarray, ball_offset: np.ndarray, hip_pos: np.ndarray,
-               reach_cm: float, lift_to_cm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+               reach_cm: float, lift_to_cm: float, frames: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Ankle targets ``t_pos (F,3)`` cm and foot rotations ``t_rot (F,4)``, with the ball of the
     foot at ``t_pos + ball_offset (F,3)``: where the hip ``hip_pos (F,3)`` is further than
     ``reach_cm`` from the ankle's target, the foot turned heel up about the ball (about the
@@ -36,11 +37,12 @@ def lift_heels(t_pos: np.ndarray, t_rot: np.ndarray, ball_offset: np.ndarray, hi
     ankle within ``lift_to_cm`` (<= ``reach_cm``; the closest the lift gets, if none does).
     Returns ``(t_pos, t_rot, heel_deg (F,), reached (F,) bool)``, new arrays; the lift is 0
     within reach; ``reached`` is False where no lift up to HEEL_MAX brings the ankle within
-    ``reach_cm``."""
+    ``reach_cm``. ``frames (F,)`` bool: the frames to lift (all by default)."""
     t_pos, t_rot = np.array(t_pos, float), np.array(t_rot, float)
     heel = np.zeros(len(t_pos))
     reached = np.ones(len(t_pos), bool)
-    far = np.flatnonzero(np.linalg.norm(t_pos - hip_pos, axis=-1) > reach_cm)
+    far = np.linalg.norm(t_pos - hip_pos, axis=-1) > reach_cm
+    far = np.flatnonzero(far if frames is None else far & frames)
     if far.size == 0:
         return t_pos, t_rot, heel, reached
     ball = t_pos[far] + ball_offset[far]
