@@ -382,7 +382,11 @@ def test_cmu_golf_exaggerated_keeps_its_feet_planted(tmp_path):
     own = cleanup.cleanup(rig, src.skeleton, src.clip, src.clip, fix_hand=False)
     for side in ("left", "right"):
         assert res.foot_error_cm[side].max() < 0.05, (side, res.foot_error_cm[side].max())
-        assert res.planted[side].sum() >= 0.85 * own.planted[side].sum(), side
+        # every plant kept: where the hips go beyond the lead leg's reach, its heel lifts
+        # (12 of its frames were let go before engine.heel, the foot sliding up to 7.3 cm)
+        assert np.array_equal(res.planted[side], own.planted[side]), side
+    lifted = res.planted["left"] & (res.heel_deg["left"] > 0)
+    assert lifted.sum() >= 10
     # and so in the file written back on the golfer's skeleton, read by the kit's own reader
     # (its hips were turned up to 180 deg there, the foot sliding 35 cm, before engine.euler's fix)
     src.capture.write(tmp_path / "take.bvh", res.clip.local_rotations, res.clip.root_positions)
@@ -391,6 +395,9 @@ def test_cmu_golf_exaggerated_keeps_its_feet_planted(tmp_path):
     planted = res.planted["right"]
     off = np.linalg.norm(kit.fk(file_take)[:, j] - kit.fk(file_src)[:, j], axis=-1) * CMU_UNIT
     assert off[planted].max() < 0.05, off[planted].max()
+    ball = file_src["names"].index("LeftToeBase")          # the lifted foot's ball stays put
+    off = np.linalg.norm(kit.fk(file_take)[:, ball] - kit.fk(file_src)[:, ball], axis=-1) * CMU_UNIT
+    assert off[lifted].max() < 0.05, off[lifted].max()
 
 
 def _golf_take(tmp_path, amount):
