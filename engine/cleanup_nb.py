@@ -16,12 +16,14 @@ from .ccd import ccd_frame
 from .fk_nb import chain_fk
 from .humerus_nb import held, open_window, release, sub_hold
 from .step_nb import Chain, Scratch, scratch, with_limits
-from .quat_nb import q_at, q_put, v_at, clamp_angle, widen_limits, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, vadd, vnorm, vsub
+from .quat_nb import between, q_at, q_put, v_at, clamp_angle, widen_limits, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
 TURN_COST = 0.005               # ... and a degree of the bat turning
 WARM_ITER = 80                  # Newton steps from the previous frame's right arm
+KNEE_STRAIGHT = math.radians(0.5)   # a knee closer than this to straight ...
+KNEE_BEND_MIN = math.radians(1.0)   # ... is bent, at least this far, before CCD shortens the leg
 
 
 @njit(cache=True)
@@ -59,7 +61,9 @@ def leg_frames(local, euler, parent_rot, parent_pos, sel, leg, foot, target, tar
         src[:] = eul
         prot = (parent_rot[f, 0], parent_rot[f, 1], parent_rot[f, 2], parent_rot[f, 3])
         ppos = (parent_pos[f, 0], parent_pos[f, 1], parent_pos[f, 2])
-        ccd_frame(prot, ppos, leg_w, loc, eul, src, (target[f, 0], target[f, 1], target[f, 2]), tol, 200, s)
+        t = (target[f, 0], target[f, 1], target[f, 2])
+        _unlock_knee(prot, ppos, leg_w, loc, eul, t, tol, s)
+        ccd_frame(prot, ppos, leg_w, loc, eul, src, t, tol, 200, s)
         chain_fk(prot, ppos, off, eoff, loc, g_rot, g_pos)
         for k in range(n):
             for c in range(4):
@@ -76,6 +80,52 @@ def leg_frames(local, euler, parent_rot, parent_pos, sel, leg, foot, target, tar
         q = from_euler_zyx(ea[0, 0], ea[0, 1], ea[0, 2])
         for c in range(4):
             local[f, ankle, c] = q[c]
+
+@njit(cache=True)
+def _unlock_knee(prot, ppos, leg, loc, eul, target, tol, s):
+    """A knee held straight (its free angles within KNEE_STRAIGHT of 0) with the target
+    nearer the hip than the ankle: bent toward its wider side until the ankle is as far from
+    the hip as the target, in place on ``loc`` / ``eul`` (the chain's local rotations and
+    Euler angles), and the thigh turned to point the ankle at the target. From straight,
+    no turn about the knee brings the ankle toward a target in line with the leg, and CCD
+    left such a leg its whole length: a plant 3 cm nearer the hip stayed 3 cm off."""
+    knee = 1
+    col, room = -1, 0.0
+    for c in range(3):
+        if leg.free[knee, c]:
+            if abs(eul[knee, c]) > KNEE_STRAIGHT:
+                return
+            wider = max(leg.hi[knee, c], -leg.lo[knee, c])
+            if wider > room:
+                col, room = c, wider
+    if col < 0:
+        return
+    eff = chain_fk(prot, ppos, leg.offsets, leg.eff_off, loc, s.g_rot, s.g_pos)
+    hip, knee_pos = v_at(s.g_pos, 0), v_at(s.g_pos, knee)
+    now, want = vnorm(vsub(eff, hip)), vnorm(vsub(target, hip))
+    if want > now - tol:
+        return
+    # the bend that brings the ankle to the target's distance from the hip (the angle at
+    # the knee between thigh and shin, by the law of cosines, against the leg's as it is)
+    a, b = vnorm(vsub(knee_pos, hip)), vnorm(vsub(eff, knee_pos))
+    if a < tol or b < tol:
+        return
+    want = max(want, abs(a - b) + tol)
+    bend = math.acos(max(-1.0, min(1.0, (a * a + b * b - now * now) / (2 * a * b))))
+    bend -= math.acos(max(-1.0, min(1.0, (a * a + b * b - want * want) / (2 * a * b))))
+    bend = min(max(bend, KNEE_BEND_MIN), room)
+    eul[knee, col] = bend if leg.hi[knee, col] >= -leg.lo[knee, col] else -bend
+    q_put(loc, knee, from_euler_zyx(eul[knee, 0], eul[knee, 1], eul[knee, 2]))
+    # and the thigh turned so the ankle points at the target (CCD turns the knee first, and
+    # would straighten it again toward a target still in line with the thigh)
+    eff = chain_fk(prot, ppos, leg.offsets, leg.eff_off, loc, s.g_rot, s.g_pos)
+    turn = between(vsub(eff, hip), vsub(target, hip))
+    hip_local = qmul(qconj(prot), qmul(turn, q_at(s.g_rot, 0)))
+    e = pick_branch(to_euler_zyx(hip_local), eul, eul, leg.free, leg.lo, leg.hi, 0)
+    for c in range(3):
+        eul[0, c] = clamp_angle(e[c], leg.lo[0, c], leg.hi[0, c]) if leg.free[0, c] else eul[0, c]
+    q_put(loc, 0, from_euler_zyx(eul[0, 0], eul[0, 1], eul[0, 2]))
+
 
 @njit(cache=True)
 def _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q):
