@@ -50,8 +50,7 @@ from .synth_detail import frame_map
 PLANT_SPEED = 15.0     # cm/s: slower than this counts as planted ...
 PLANT_HEIGHT = 6.0     # cm: ... if also within this of the foot's lowest height
 PLANT_BLEND = 4        # frames over which a plant fades in and out
-REACH = 0.995          # a plant further from the hip than this share of the leg lifts the heel ...
-LIFT_TO = 0.99         # ... until the ankle is this far (CCD straightens a leg slowly near 1)
+REACH = 0.995          # a plant further from the hip than this share of the leg lifts the heel
 BALL_ROUNDS = 4        # re-aims of a lifted ankle whose foot the ankle's limits stop short
 FOOT_TOL = 0.05        # cm: a planted ankle further than this off its plant moves the hips ...
 PELVIS_ROUNDS = 12     # ... at most this many times ...
@@ -270,7 +269,7 @@ def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
         return Plant(planted, t_pos, t_rot, np.zeros(len(planted)), t_rot, t_pos)
     ball_offset = src_global_pos[source_frames, ball] - src_global_pos[source_frames, ankle]
     lifted_pos, lifted_rot, heel_deg, reached = heel.lift_heels(t_pos, t_rot, ball_offset, hip, reach,
-                                                                LIFT_TO * reach / REACH, _plant_weight(planted) > 0)
+                                                                _plant_weight(planted) > 0)
     # beyond what the lift brings back, the foot leaves the plant
     return Plant(planted & reached, lifted_pos, lifted_rot, heel_deg, t_rot, t_pos + ball_offset)
 

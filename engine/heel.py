@@ -28,13 +28,13 @@ def ball_joint(rig, skeleton, side: str) -> int | None:
 
 
 def lift_heels(t_pos: np.ndarray, t_rot: np.ndarray, ball_offset: np.ndarray, hip_pos: np.ndarray,
-               reach_cm: float, lift_to_cm: float, frames: np.ndarray | None = None
+               reach_cm: float, frames: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Ankle targets ``t_pos (F,3)`` cm and foot rotations ``t_rot (F,4)``, with the ball of the
     foot at ``t_pos + ball_offset (F,3)``: where the hip ``hip_pos (F,3)`` is further than
     ``reach_cm`` from the ankle's target, the foot turned heel up about the ball (about the
     horizontal axis across the foot) by the least angle, at most HEEL_MAX, that brings the
-    ankle within ``lift_to_cm`` (<= ``reach_cm``; the closest the lift gets, if none does).
+    ankle within ``reach_cm`` (the closest the lift gets, if none does).
     Returns ``(t_pos, t_rot, heel_deg (F,), reached (F,) bool)``, new arrays; the lift is 0
     within reach; ``reached`` is False where no lift up to HEEL_MAX brings the ankle within
     ``reach_cm``. ``frames (F,)`` bool: the frames to lift (all by default)."""
@@ -49,7 +49,7 @@ def lift_heels(t_pos: np.ndarray, t_rot: np.ndarray, ball_offset: np.ndarray, hi
     across = np.cross(UP, ball_offset[far] * [1.0, 0.0, 1.0])      # turning +about it raises the heel
     norm = np.linalg.norm(across, axis=-1, keepdims=True)
     axis = across / np.maximum(norm, 1e-9)
-    theta = least_lift(axis, -ball_offset[far], ball - hip_pos[far], lift_to_cm, np.radians(HEEL_MAX))
+    theta = least_lift(axis, -ball_offset[far], ball - hip_pos[far], reach_cm, np.radians(HEEL_MAX))
     theta = np.where(norm[:, 0] > 1e-6, theta, 0.0)                # a foot pointing straight down: left
     turns = quat.from_axis_angle(axis, theta)
     t_pos[far] = ball + quat.rotate(turns, -ball_offset[far])

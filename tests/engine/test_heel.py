@@ -45,9 +45,9 @@ def test_a_lift_keeps_the_ball_and_raises_the_heel():
     ball_offset = np.array([[0.0, -6.0, 15.0], [0.0, -6.0, 15.0]])
     hip = np.array([[0.0, 100.0, 0.0], [0.0, 80.0, 0.0]])
     leg = 88.0
-    pos, rot, deg, reached = heel.lift_heels(t_pos, t_rot, ball_offset, hip, leg, leg * 0.99)
+    pos, rot, deg, reached = heel.lift_heels(t_pos, t_rot, ball_offset, hip, leg)
     assert reached.all() and deg[0] > 1.0 and deg[1] == 0.0
     assert np.allclose(pos[0] + quat.rotate(rot[0], [0.0, -6.0, 15.0]), t_pos[0] + ball_offset[0])
-    assert pos[0, 1] > t_pos[0, 1] and np.isclose(np.linalg.norm(pos[0] - hip[0]), leg * 0.99)
+    assert pos[0, 1] > t_pos[0, 1] and np.isclose(np.linalg.norm(pos[0] - hip[0]), leg)
     assert np.isclose(quat.angle_between(rot[0], t_rot[0]), deg[0])
     assert np.array_equal(pos[1], t_pos[1]) and np.array_equal(rot[1], t_rot[1])
