@@ -18,9 +18,9 @@ Three fixes, the first two compiled (engine/cleanup_nb.py, one call per clip; a 
   elsewhere, holds where it lands), and the foot is turned to its orientation,
   with a short blend at the plant's ends so nothing pops; where the new hips go
   further from the plant than the leg reaches, the heel lifts and the ball of the
-  foot stays (:mod:`engine.heel`); where the legs'
-  limits keep an ankle off its plant, the hips follow the feet (the root moves by
-  what they miss, smoothed over a few frames);
+  foot stays (:mod:`engine.heel`); where the legs' limits keep an ankle off its
+  plant, the hips follow the feet (the root moves by what they miss, smoothed over a
+  few frames);
 * the hit: at the take's hit frame the bat is brought to the source's hit point and its face
   turned to the source's there (:mod:`engine.cleanup_hit`), after the other two.
 

@@ -5,8 +5,8 @@ reaches (an exaggerated drive's lunge, a golfer's lead leg straightening through
 ball), the foot pivots about the ball of the foot (the first toe joint), heel up, by the
 least angle that brings the ankle back within reach; the toes turn back so they stay flat.
 Before, the foot was let go there and slid (the CMU golf swing's lead foot, 7.3 cm along
-the ground at the default exaggeration). Past ``HEEL_MAX`` the plant keeps the largest
-lift and the clean-up's hips follow the foot (:func:`engine.cleanup.feet_on_plants`).
+the ground at the default exaggeration). Where no lift up to ``HEEL_MAX`` brings the
+ankle back within reach, the foot leaves the plant (:func:`engine.cleanup.foot_plant`).
 """
 from __future__ import annotations
 
