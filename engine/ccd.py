@@ -41,6 +41,7 @@ ITERATIONS = 200
 _STALL = 1e-7          # cm per sweep: slower progress than this means "as close as it gets"
 _STALL_REL = 0.0       # share of the error a sweep must gain (0: only _STALL; CCD may crawl near limits yet arrive)
 POLISH_STEPS = np.int64(8)     # Newton steps at most when a CCD sweep stalls near the handle
+HOLD_ROUNDS = 3        # sweeps, then the humerus held, at most this many times (ccd_frame)
 
 
 @njit(cache=True)
@@ -96,31 +97,17 @@ def ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle
 
 
 @njit(cache=True)
-def ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s):
-    """Solve one frame in place. local (n,4) and euler (n,3, radians) hold the
-    start pose and receive the result. Returns (error cm, iterations).
-
-    CCD converges fast far from the handle and slowly near it (each joint only
-    swings the effector onto its own joint-handle line, so the reach distance
-    is fixed up a little per sweep). When a sweep gains less than half, Newton
-    steps weighted by ``ch.weight (n,)`` finish the last centimetres
-    (all-zero weights: pure CCD)."""
-    offsets, eff_off, weight, g_rot, g_pos = ch.offsets, ch.eff_off, ch.weight, s.g_rot, s.g_pos
-    free, kind, lo, hi, hold = ch.free, ch.kind, ch.lo, ch.hi, ch.hold
-    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
-    err = vnorm(vsub(eff, handle))
-    if not err >= tol:          # also stops on a NaN handle (pose stays the source)
-        return err, 0
-    do_polish = False
-    for k in range(local.shape[0]):
-        if weight[k] > 0.0:
-            do_polish = True
+def _sweeps(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s, eff, err, do_polish):
+    """:func:`ccd_frame`'s sweeps (and Newton polish) from the pose whose effector ``eff``
+    is ``err`` cm off: returns (error, effector, sweeps)."""
+    offsets, eff_off, g_rot, g_pos = ch.offsets, ch.eff_off, s.g_rot, s.g_pos
     it = 0
     while it < max_iter:
         it += 1
         start_err = err
-        eff = ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle, tol, eff, g_rot, g_pos)
-        eff = held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos)
+        eff = ccd_sweep(prot, offsets, local, euler, src_euler, ch.free, ch.kind, ch.lo, ch.hi, handle, tol, eff,
+                        g_rot, g_pos)
+        eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
         err = vnorm(vsub(eff, handle))
         if err < tol:
             break
@@ -132,6 +119,40 @@ def ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s)
                 break
         if start_err - err < max(_STALL, _STALL_REL * err):
             break       # as close as this pose gets (unreachable, or held by limits)
+    return err, eff, it
+
+
+@njit(cache=True)
+def ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s):
+    """Solve one frame in place. local (n,4) and euler (n,3, radians) hold the
+    start pose and receive the result. Returns (error cm, iterations).
+
+    CCD converges fast far from the handle and slowly near it (each joint only
+    swings the effector onto its own joint-handle line, so the reach distance
+    is fixed up a little per sweep). When a sweep gains less than half, Newton
+    steps weighted by ``ch.weight (n,)`` finish the last centimetres
+    (all-zero weights: pure CCD). The humerus is held (``ch.hold``, engine.humerus_nb)
+    on the pose the sweeps converge to; its swing keeps the effector unless the arm's
+    limits clamp it, and then the sweeps go on from the held pose (HOLD_ROUNDS)."""
+    g_rot, g_pos = s.g_rot, s.g_pos
+    eff = chain_fk(prot, ppos, ch.offsets, ch.eff_off, local, g_rot, g_pos)
+    err = vnorm(vsub(eff, handle))
+    if not err >= tol:          # also stops on a NaN handle (pose stays the source)
+        return err, 0
+    do_polish = False
+    for k in range(local.shape[0]):
+        if ch.weight[k] > 0.0:
+            do_polish = True
+    it = 0
+    for _ in range(HOLD_ROUNDS):
+        err, eff, k = _sweeps(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter - it, s, eff, err,
+                              do_polish)
+        it += k
+        before = err
+        eff = held_fk(prot, ppos, ch.offsets, ch.eff_off, local, euler, ch.lo, ch.hi, ch.hold, g_rot, g_pos)
+        err = vnorm(vsub(eff, handle))
+        if err < tol or abs(err - before) < _STALL or it >= max_iter:
+            break
     return err, it
 
 

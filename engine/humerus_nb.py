@@ -5,9 +5,10 @@ only near the T-pose (Codman's paradox: an arm swung across the chest with no ax
 reads x = 180), so no box on it can be the documented range. The solvers read the axial
 rotation as ISB does (Wu et al. 2005, humerothoracic Y-X-Y: plane of elevation, elevation,
 axial rotation, + internal; the check in tools/shots_check.humerothoracic reads the same
-from rotation matrices) and, after every step, turn the twist back inside the range:
-a turn about the bone leaves its plane and elevation as they are and moves its axial
-rotation by the same angle, so one projection is exact. With the arm near hanging
+from rotation matrices) and turn the arm back inside the range: the Newton solvers after
+every step, CCD once, on the pose its sweeps converge to (held after every sweep, the hold's
+swings steered the later sweeps to the far side of the arm: in the leg glance a right elbow
+47 cm off the source's for one frame). With the arm near hanging
 (or straight up) the plane and the axial rotation are one turn: the range fades out there
 over ``FADE`` about the edges of ``BAND``, as the check's reading does.
 
@@ -34,9 +35,11 @@ from .quat_nb import (axis_angle, clamp_angle, dot, from_euler_zyx, other_branch
 BAND = (math.radians(20.0), math.radians(160.0))   # elevation where the axial rotation is a turn of its own
 FADE = math.radians(10.0)
 COS_FULL = math.cos(BAND[0] + 0.5 * FADE)   # |cos elevation| below this: the range holds in full
-SWING_STEP = math.radians(15.0) # the search for the swing that keeps the effector: step, steps each way,
-SWING_STEPS = 12                 # and the bisection's last interval
-SWING_TOL = math.radians(1.0)
+SWING_STEP = math.radians(15.0) # the search for the swing that keeps the effector: step, and steps
+# each way: at most 30 deg, since a larger swing is the elbow going round the arm (searched
+# to 180, a swing for a hair less excess popped the back-foot defence's right elbow 51 cm
+# between two frames)
+SWING_STEPS = 2
 
 
 def no_hold() -> tuple:

@@ -104,10 +104,13 @@ def test_the_hold_swings_the_arm_back_and_leaves_the_bat_where_it_is(rig, librar
     """Upper arms turned 20 deg further in than the range (every other frame of every shot
     whose left humerus is well inside it, in the band): the hold swings the arm about the
     shoulder-bat line, so the bat does not move (unless the arm's Euler limits clamp the
-    swing: measured 11 of 59); the humerus never ends further out, and
-    mostly inside (42 of 59); the arm's angles inside its limits and its rotation."""
+    swing: measured 4 of 59); the humerus always ends nearer the range, half way back or
+    more on the median, inside in a quarter of the cases or more (measured 18 of 59, the
+    median 8.9 deg past; with swings up to 180 deg, 42 inside, but such a swing is the elbow
+    going round the arm: humerus_nb.SWING_STEPS); the arm's angles inside its limits and its
+    rotation."""
     from engine.fk_nb import chain_fk
-    inside_after, cases, clamped = 0, 0, 0
+    inside_after, cases, clamped, pasts = 0, 0, 0, []
     for shot in library:
         for frame in range(0, shot.clip.num_frames, 2):
             ch, prot, ppos, local, euler = _left_arm(rig, shot, frame)
@@ -126,12 +129,14 @@ def test_the_hold_swings_the_arm_back_and_leaves_the_bat_where_it_is(rig, librar
             clamped += bool(on_limit)
             _, elevation, held_axial = _axial(rig, ch, local)
             past = held_axial - (hi + (1.0 - band_weight(elevation)) * np.pi)    # the range faded by elevation
-            assert past <= np.radians(20.0) + 1e-9, (shot.name, frame)
+            assert past < np.radians(20.0), (shot.name, frame)
+            pasts.append(past)
             assert np.all(euler[arm] >= ch.lo[arm] - 1e-12) and np.all(euler[arm] <= ch.hi[arm] + 1e-12)
             assert np.isclose(abs(np.sum(quat.from_euler(np.degrees(euler[arm]), "ZYX") * local[arm])), 1.0)
             inside_after += past <= 1e-9
             cases += 1
-    assert cases >= 30 and inside_after >= 0.5 * cases and clamped <= 0.35 * cases, (inside_after, clamped, cases)
+    assert cases >= 30 and inside_after >= 0.25 * cases and clamped <= 0.35 * cases, (inside_after, clamped, cases)
+    assert np.median(pasts) <= np.radians(10.0), np.degrees(np.median(pasts))
 
 
 def test_a_pose_inside_its_window_is_left_bit_for_bit(rig, library):
