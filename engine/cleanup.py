@@ -242,6 +242,7 @@ class Plant(NamedTuple):
     heel_deg: np.ndarray     # (F,) the heel's lift (engine.heel), 0 within the leg's reach
     flat_foot: np.ndarray    # (F, 4): the foot's rotation before the lift
     ball: np.ndarray         # (F, 3) cm: the ball of the foot's place, which a lift keeps
+    ball_joint: int | None = None   # the joint the foot turns about (heel.ball_joint; None: no toe)
 
 
 def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_global_pos, fps: float,
@@ -271,7 +272,7 @@ def foot_plant(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
     lifted_pos, lifted_rot, heel_deg, reached = heel.lift_heels(t_pos, t_rot, ball_offset, hip, reach,
                                                                 _plant_weight(planted) > 0)
     # beyond what the lift brings back, the foot leaves the plant
-    return Plant(planted & reached, lifted_pos, lifted_rot, heel_deg, t_rot, t_pos + ball_offset)
+    return Plant(planted & reached, lifted_pos, lifted_rot, heel_deg, t_rot, t_pos + ball_offset, ball)
 
 
 def reach_plant(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant: Plant, g_rot, g_pos) -> None:
@@ -294,7 +295,7 @@ def _keep_ball(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant: Plant
     leaves its place), the ankle's target moved to where the foot as it turned puts the ball
     back, in ``plant`` (in place), and the leg solved again, in place. ``g_rot``/``g_pos``:
     the FK :func:`reach_plant` solved from (the hips have not moved since)."""
-    ball = heel.ball_joint(rig, skeleton, side)
+    ball = plant.ball_joint
     lifted = plant.planted & (plant.heel_deg > 0)
     if ball is None or not lifted.any():
         return
@@ -330,7 +331,7 @@ def plant_foot(rig: Rig, skeleton: Skeleton, clip: Clip, src_global_rot, src_glo
 def _flatten_toes(rig: Rig, skeleton: Skeleton, clip: Clip, side: str, plant: Plant, g_rot) -> None:
     """Where ``plant`` lifted the heel, the toes turned back flat on the ground (engine.heel),
     in place; ``g_rot``: the clip's global rotations with the leg solved."""
-    ball = heel.ball_joint(rig, skeleton, side)
+    ball = plant.ball_joint
     if ball is not None and plant.heel_deg.any():
         weight = _plant_weight(plant.planted) * (plant.heel_deg > 0)
         heel.flatten_toes(rig, skeleton, clip.local_rotations, g_rot, ball, plant.flat_foot, weight)
