@@ -29,7 +29,7 @@ from .quat_nb import (TINY, qmul, qconj, cross, dot, vsub, vadd, vnorm, qrot, be
                       clamp_angle, into_range, other_branch, outside, pick_branch, q_at, v_at, q_put, wrap)
 from .step_nb import YES, Chain, PositionProblem, hinge_axis, lm_loop, scratch
 from .euler import degrees_outside
-from .humerus_nb import held_fk, no_hold, open_window
+from .humerus_nb import hold_fk, no_hold, open_window
 
 
 KIND_NONE = 0          # no free DOF: never turned
@@ -42,6 +42,25 @@ _STALL = 1e-7          # cm per sweep: slower progress than this means "as close
 _STALL_REL = 0.0       # share of the error a sweep must gain (0: only _STALL; CCD may crawl near limits yet arrive)
 POLISH_STEPS = np.int64(8)     # Newton steps at most when a CCD sweep stalls near the handle
 HOLD_ROUNDS = 3        # sweeps, then the humerus held, at most this many times (ccd_frame)
+
+
+@njit(cache=True)
+def turn_joint(parent_rot, joint_rot, u, v, euler, src_euler, free, lo, hi, k):
+    """Joint ``k`` (global rotation ``joint_rot``, its parent's ``parent_rot``) turned by the
+    shortest arc taking direction ``u`` onto ``v`` (world), on its limits' Euler branch: the
+    free columns clamped to ``lo``/``hi``, the locked ones ``src_euler``'s, into ``euler[k]``.
+    Returns (whether it turned, its new local rotation)."""
+    qd = between(u, v)
+    if qd[0] == 1.0:
+        return False, qd
+    lc = qmul(qconj(parent_rot), qmul(qd, joint_rot))
+    e = pick_branch(to_euler_zyx(lc), euler, src_euler, free, lo, hi, k)
+    for c in range(3):
+        if free[k, c]:
+            euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
+        else:
+            euler[k, c] = src_euler[k, c]
+    return True, from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
 
 
 @njit(cache=True)
@@ -74,17 +93,9 @@ def ccd_sweep(prot, offsets, local, euler, src_euler, free, kind, lo, hi, handle
             euler[k, c] = new
             lq = from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
         else:
-            qd = between(u, v)
-            if qd[0] == 1.0:
+            turned, lq = turn_joint(gp, q_at(g_rot, k), u, v, euler, src_euler, free, lo, hi, k)
+            if not turned:
                 continue
-            lc = qmul(qconj(gp), qmul(qd, q_at(g_rot, k)))
-            e = pick_branch(to_euler_zyx(lc), euler, src_euler, free, lo, hi, k)
-            for c in range(3):
-                if free[k, c]:
-                    euler[k, c] = clamp_angle(e[c], lo[k, c], hi[k, c])
-                else:
-                    euler[k, c] = src_euler[k, c]
-            lq = from_euler_zyx(euler[k, 0], euler[k, 1], euler[k, 2])
         old_g = q_at(g_rot, k)
         new_g = qmul(gp, lq)
         q_put(local, k, lq)
@@ -149,7 +160,8 @@ def ccd_frame(prot, ppos, ch, local, euler, src_euler, handle, tol, max_iter, s)
                               do_polish)
         it += k
         before = err
-        eff = held_fk(prot, ppos, ch.offsets, ch.eff_off, local, euler, ch.lo, ch.hi, ch.hold, g_rot, g_pos)
+        # (the sweeps leave the FK of their last pose in g_rot/g_pos: the hold reads it)
+        eff = hold_fk(prot, ppos, ch.offsets, ch.eff_off, local, euler, ch.lo, ch.hi, ch.hold, g_rot, g_pos, eff)
         err = vnorm(vsub(eff, handle))
         if err < tol or abs(err - before) < _STALL or it >= max_iter:
             break

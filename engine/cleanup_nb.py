@@ -12,11 +12,11 @@ from numba import njit
 from .arms_nb import NO_FACE, both_arms_solve, both_fk
 from .end_nb import GRIP_LENGTH, gather_chain, grip_solve, grip_target, orient_finish, scatter_chain
 from .frames_nb import GRIP_CM, GRIP_RAD
-from .ccd import ccd_frame
+from .ccd import ccd_frame, turn_joint
 from .fk_nb import chain_fk
 from .humerus_nb import held, open_window, release, sub_hold
 from .step_nb import Chain, Scratch, scratch, with_limits
-from .quat_nb import between, q_at, q_put, v_at, clamp_angle, widen_limits, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, vadd, vnorm, vsub
+from .quat_nb import q_at, q_put, v_at, clamp_angle, widen_limits, from_euler_zyx, pick_branch, qconj, to_euler_zyx, q_angle, qmul, vadd, vnorm, vsub
 
 BAT_GIVE_ROUNDS = 4             # times the bat may be moved toward a right hand that cannot reach
 BAT_COST = 0.05                 # grip cm a cm of bat movement is worth when choosing between two-arm solutions
@@ -119,12 +119,10 @@ def _unlock_knee(prot, ppos, leg, loc, eul, target, tol, s):
     # and the thigh turned so the ankle points at the target (CCD turns the knee first, and
     # would straighten it again toward a target still in line with the thigh)
     eff = chain_fk(prot, ppos, leg.offsets, leg.eff_off, loc, s.g_rot, s.g_pos)
-    turn = between(vsub(eff, hip), vsub(target, hip))
-    hip_local = qmul(qconj(prot), qmul(turn, q_at(s.g_rot, 0)))
-    e = pick_branch(to_euler_zyx(hip_local), eul, eul, leg.free, leg.lo, leg.hi, 0)
-    for c in range(3):
-        eul[0, c] = clamp_angle(e[c], leg.lo[0, c], leg.hi[0, c]) if leg.free[0, c] else eul[0, c]
-    q_put(loc, 0, from_euler_zyx(eul[0, 0], eul[0, 1], eul[0, 2]))
+    turned, hip_local = turn_joint(prot, q_at(s.g_rot, 0), vsub(eff, hip), vsub(target, hip), eul, eul, leg.free,
+                                   leg.lo, leg.hi, 0)
+    if turned:
+        q_put(loc, 0, hip_local)
 
 
 @njit(cache=True)

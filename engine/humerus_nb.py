@@ -197,7 +197,14 @@ def _put_arm(local, euler, lo, hi, k, q):
 def held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos):
     """:func:`engine.fk_nb.chain_fk` of the pose after :func:`hold_axial` held it (in place):
     the solvers' FK after a step. Returns the effector."""
-    eff = chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos)
+    return hold_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos,
+                   chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos))
+
+
+@njit(cache=True)
+def hold_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos, eff):
+    """:func:`held_fk` of a pose whose chain FK (``g_rot``, ``g_pos``, effector ``eff``) is
+    already computed: the FK again only where the hold swung the arm. Returns the effector."""
     idx, window = hold[0], hold[2]
     ka, kc = idx[1], idx[0]
     if ka < 0 or window[1] - window[0] >= 2.0 * math.pi:
