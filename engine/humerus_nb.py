@@ -201,10 +201,11 @@ def held_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_p
                    chain_fk(prot, ppos, offsets, eff_off, local, g_rot, g_pos))
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def hold_fk(prot, ppos, offsets, eff_off, local, euler, lo, hi, hold, g_rot, g_pos, eff):
     """:func:`held_fk` of a pose whose chain FK (``g_rot``, ``g_pos``, effector ``eff``) is
-    already computed: the FK again only where the hold swung the arm. Returns the effector."""
+    already computed: the FK again only where the hold swung the arm. Returns the effector.
+    Inlined (:func:`held_fk` runs it after every solver step)."""
     idx, window = hold[0], hold[2]
     ka, kc = idx[1], idx[0]
     if ka < 0 or window[1] - window[0] >= 2.0 * math.pi:
