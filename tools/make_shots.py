@@ -144,8 +144,10 @@ def into_limits(rig, clip: Clip) -> tuple[Clip, float]:
     have, want = chk.right_in_left(rig, *clip_fk(rig.skeleton, fixed)), chk.right_in_left(rig, src_rot, src_pos)
     off = (np.linalg.norm(have[0] - want[0], axis=-1) > 0.3) | (quat.angle_between(have[1], want[1]) > 1.5)
     if off.any():
-        # the re-grip solves every frame (its elbows may differ): kept where the grip was lost
-        cleanup.reattach_right_hand(rig, rig.skeleton, fixed, src_rot, src_pos)
+        # the re-grip solves every frame (its elbows may differ): kept where the grip was lost;
+        # forward in time only, as the library was built (both passes re-key the leg glance's
+        # clamped frames: not yet checked against the shots' measures)
+        cleanup.reattach_right_hand(rig, rig.skeleton, fixed, src_rot, src_pos, passes=(1,))
         # ... and where its elbow does not go through the trunk
         inside = chk.elbow_to_spine(rig, clip_fk(rig.skeleton, fixed)[1], "Right") < chk.TRUNK_INSIDE_CM
         fixed.local_rotations[~off | inside] = local[~off | inside]

@@ -554,3 +554,43 @@ def test_cleanup_keeps_both_hands_on_the_handle(rig, library, name):
         _, p0 = clip_fk(rig.skeleton, feet.clip)
         _, p1 = clip_fk(rig.skeleton, res.clip)
         assert np.linalg.norm(p1[:, rig.bat_joint] - p0[:, rig.bat_joint], axis=1).max() < 5.0, case
+
+
+def _added_swings(rig, raw: Clip, cleaned: Clip) -> int:
+    """Frame pairs where an elbow of ``cleaned`` moves more than 10 cm further than its shoulder
+    and hand do and ``raw``'s does not: the elbow gone round the arm."""
+    sk = rig.skeleton
+    out = 0
+    for side in ("Left", "Right"):
+        arm = [sk.index(side + n) for n in ("Arm", "ForeArm", "Hand")]
+        extra = []
+        for clip in (raw, cleaned):
+            step = np.linalg.norm(np.diff(clip_fk(sk, clip)[1][:, arm], axis=0), axis=-1)
+            extra.append(step[:, 1] - step[:, [0, 2]].max(axis=1))
+        out += int(np.sum((extra[1] > 10.0) & ~(extra[0] > 10.0)))
+    return out
+
+
+def test_the_hand_fix_seldom_swings_an_elbow_round_the_arm(rig, library):
+    """The right hand's fix solves frames one after another from the previous one's answer;
+    where that fails, a colder solve may land the elbow on the other side of the arm. Solved
+    forward and backward in time, each frame keeping the answer that swings the elbows least
+    (engine.path_nb), the presets of every shot (with the source's detail, as the viewer makes
+    them) swing far fewer elbows than the forward pass alone, every hand on its grip.
+    Measured: 50 frame pairs forward alone, 23 with both passes (45 takes)."""
+    counts = {}
+    for shot in library.values():
+        space = pcam.fit_clip(rig, shot.clip, "body")
+        sections = synth.shot_sections(shot.fk[1][:, rig.bat_joint], shot.hit_frame)
+        base = synth.source_path(space)
+        src_rot, src_pos = shot.fk
+        for preset, amount in [("source", None), ("exaggerated", 0.4), ("exaggerated", 1.0), ("toned_down", 0.5)]:
+            path = base if amount is None else synth.preset_path(base, preset, amount, sections)
+            anim = synth.synthesise(space, path, frames=shot.num_frames,
+                                    detail=synth_detail.source_detail(space, path, "time"))
+            for passes in ((1,), (1, -1)):
+                out = anim.copy()
+                cm, deg = cleanup.reattach_right_hand(rig, shot.skeleton, out, src_rot, src_pos, passes=passes)
+                assert cm.max() < 0.06 and deg.max() < 0.6, (shot.name, preset, passes)
+                counts[passes] = counts.get(passes, 0) + _added_swings(rig, anim, out)
+    assert counts[(1, -1)] <= 0.6 * counts[(1,)], counts
