@@ -57,8 +57,8 @@ REACH = 0.995          # a plant further from the hip than this share of the leg
 BALL_ROUNDS = 4        # re-aims of a lifted ankle whose foot the ankle's limits stop short
 FOOT_TOL = 0.05        # cm: a planted ankle further than this off its plant moves the hips ...
 PELVIS_ROUNDS = 12     # ... at most this many times ...
-FACE_REDO_DEG = 1.0   # a take's face further than this from the source's at the hit: the hand fixed again forward only
 PELVIS_SMOOTH = 2.0    # ... by what the feet miss, smoothed over this many frames (Gaussian sigma)
+FACE_REDO_DEG = 1.0    # deg: a face further than this from the source's at the hit: the hand fixed again, forward only
 
 
 @dataclass
@@ -393,27 +393,28 @@ def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, 
     frame keeps one of the two answers: the path through them whose elbows swing least
     beyond their hands, with the grip's error and the bat's move charged too
     (engine.path_nb). Measured over 45 takes (9 shots x 5 presets, the source's detail):
-    takes with a right elbow swing over 10 cm 23 -> 14, frame pairs 50 -> 24, the
-    right humerus past its range 7% less; the clean-up 1.6x as long."""
-    passes = [_grip_pass(rig, skeleton, clip, rel_pos, rel_rot, tolerance, step) for step in passes]
+    takes with a right elbow swing over 10 cm 23 -> 13, frame pairs 50 -> 23, the
+    right humerus past its range 7% less; a take 1.2-1.35x as long. ``passes``: 1 forward,
+    -1 backward."""
+    answers = [_grip_pass(rig, skeleton, clip, rel_pos, rel_rot, tolerance, step) for step in passes]
     cost, points = [], []
     lh, rh = rig.skeleton.parents[rig.bat_joint], rig.chains["right_arm"].effector
     arms = [_elbow_and_hand(rig, name) for name in ("left_arm", "right_arm")]
-    for local, moved in passes:
+    for local, moved in answers:
         g_rot, g_pos = _fk(skeleton, Clip(clip.root_positions, local, clip.fps, clip.local_positions))
         t_pos, _ = carried_pose(g_rot[:, lh], g_pos[:, lh], rel_pos, rel_rot)
         cost.append(np.linalg.norm(g_pos[:, rh] - t_pos, axis=-1) + BAT_COST * moved)
         points.append([g_pos[:, js] for js in arms])
     path = cheapest_path(np.ascontiguousarray(np.stack(cost, 1)), _swing_charges(points))
-    for k, (local, _) in enumerate(passes):
+    for k, (local, _) in enumerate(answers):
         clip.local_rotations[path == k] = local[path == k]
-    return np.choose(path, [moved for _, moved in passes])
+    return np.choose(path, [moved for _, moved in answers])
 
 
 def _elbow_and_hand(rig: Rig, name: str) -> list[int]:
     """Arm chain ``name``'s elbow and hand joints: its last joint, and the last before it that
-    is no roll (twist-only) joint. (Charged, all the chain's joints swung less alike: 17
-    takes with a swing over 10 cm against 13.)"""
+    is no roll (twist-only) joint. (Charging every joint of the chains instead: 17 takes
+    with a swing over 10 cm, against 13.)"""
     ch = chain_arrays(rig, name)
     roll = twist_only(ch.free)
     elbow = max(k for k in range(len(ch.joints) - 1) if not roll[k])
