@@ -201,15 +201,20 @@ def test_analyse_directions_json_and_table():
         assert set(FACE_KEYS) <= set(e) and e["wrist_dof"] in (0, 2)
     zero = [e for e in s["grid"] if e["offset_cm"] == [0.0, 0.0, 0.0]]
     assert len(zero) == 2 and all(e["face_angle_deg"] < 1e-3 for e in zero)
+    # the trunk's turn from the source's: none where the shot is its own source, some elsewhere
+    assert all(e["trunk_turn_deg"] < 1e-3 for e in zero)
+    assert all(0.0 <= e["trunk_turn_deg"] <= 180.0 for e in s["grid"]) and max(e["trunk_turn_deg"] for e in s["grid"]) > 1.0
     src = s["source"]
     assert all(e["ball_azimuth_deg"] == pytest.approx(src["ball_azimuth_deg"], abs=0.01) for e in zero)
     for dof in ("dof0", "dof2"):
         assert {"face_angle_median_deg", "face_angle_max_deg", "face_share", "spearman_azimuth_vs_off_offset",
                 "azimuth_moves_with_hit_point", "turned_from_ball"} <= set(s[dof])
-        assert {"face_angle_p90_deg", "turned_from_ball"} <= set(d["overall"][dof])
+        assert {"face_angle_p90_deg", "turned_from_ball", "trunk_turn_p90_deg"} <= set(d["overall"][dof])
+        assert s[dof]["trunk_turn_max_deg"] == max(e["trunk_turn_deg"] for e in s["grid"]
+                                                   if e["wrist_dof"] == int(dof[-1]) and e["bat_error_cm"] < 0.01)
     assert src["bat_speed_mps"] > 0
     t = _cli("analyse", "--directions", "--shot", "straight_drive")
-    assert "straight_drive" in t and "rho(az, off)" in t and "all shots, 0 DOF" in t
+    assert "straight_drive" in t and "rho(az, off)" in t and "all shots, 0 DOF" in t and "trunk turned" in t
 
 
 def test_position_only_ccd_keeps_the_face_better_when_the_roll_joints_follow(rig, library):
