@@ -117,7 +117,7 @@ def cleanup(rig: Rig, skeleton: Skeleton, clip: Clip, source: Clip, fix_hand: bo
             res.foot_error_cm[side] = err
             res.planted[side] = planted
             res.heel_deg[side] = np.where(planted, lift, 0.0)
-    feet_done = out.copy()
+    feet_done = out.copy() if fix_hand and source_hit_frame is not None else None   # (the hit's redo below)
     if fix_hand:
         res.hand_error_cm, res.hand_error_deg = reattach_right_hand(rig, skeleton, out, src_rot[m], src_pos[m])
     if source_hit_frame is not None:
@@ -396,7 +396,12 @@ def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, 
     takes with a right elbow swing over 10 cm 23 -> 13, frame pairs 50 -> 23, the
     right humerus past its range 7% less; a take 1.2-1.35x as long. ``passes``: 1 forward,
     -1 backward."""
-    answers = [_grip_pass(rig, skeleton, clip, rel_pos, rel_rot, tolerance, step) for step in passes]
+    left, right = chain_arrays(rig, "left_arm"), chain_arrays(rig, "right_arm")
+    g_rot, g_pos = _fk(skeleton, clip)
+    frames = (clip.local_rotations, np.radians(limit_euler(clip.local_rotations, rig.limits)),
+              g_rot[:, left.parent], g_pos[:, left.parent])
+    chains = (left, right, list(left.joints).index(right.parent))
+    answers = [_grip_pass(frames, chains, rel_pos, rel_rot, tolerance, step) for step in passes]
     cost, points = [], []
     lh, rh = rig.skeleton.parents[rig.bat_joint], rig.chains["right_arm"].effector
     arms = [_elbow_and_hand(rig, name) for name in ("left_arm", "right_arm")]
@@ -436,22 +441,18 @@ def _swing_charges(points: list) -> np.ndarray:
     return out
 
 
-def _grip_pass(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, rel_rot: np.ndarray,
-               tolerance: float, step: int) -> tuple[np.ndarray, np.ndarray]:
+def _grip_pass(frames: tuple, chains: tuple, rel_pos: np.ndarray, rel_rot: np.ndarray, tolerance: float,
+               step: int) -> tuple[np.ndarray, np.ndarray]:
     """One pass of the compiled grip solve (engine.cleanup_nb.grip_frames) over the frames
     in time order (``step`` 1) or reversed (-1): the local rotations ``(F, J, 4)`` it leaves
-    and the bat's move ``(F,)`` cm, in time order; ``clip`` unchanged."""
-    left = chain_arrays(rig, "left_arm")
-    right = chain_arrays(rig, "right_arm")
-    rp = list(left.joints).index(right.parent)
-    g_rot, g_pos = _fk(skeleton, clip)
-    local = np.array(clip.local_rotations[::step], float)     # a copy: the kernel works in place
-    euler = np.ascontiguousarray(np.radians(limit_euler(local, rig.limits)))
-    moved = grip_frames(local, euler, (np.ascontiguousarray(g_rot[::step, left.parent]),
-                                        np.ascontiguousarray(g_pos[::step, left.parent])),
-                         left.kernel_tuple("polish"), right.kernel_tuple("polish"), rp,
-                         np.ascontiguousarray(rel_pos[::step], float), np.ascontiguousarray(rel_rot[::step], float),
-                         (float(tolerance), ORIENT_TOL, BAT_GIVE_ROUNDS))
+    and the bat's move ``(F,)`` cm, in time order. ``frames`` = (local rotations, their limit
+    Euler angles rad, the left chain's parent's global rotations and positions), left
+    unchanged; ``chains`` = (left, right ChainArrays, the left joint the right arm hangs from)."""
+    left, right, rp = chains
+    local, euler, parent_rot, parent_pos = (np.array(a[::step], float) for a in frames)   # copies: solved in place
+    moved = grip_frames(local, euler, (parent_rot, parent_pos), left.kernel_tuple("polish"),
+                        right.kernel_tuple("polish"), rp, np.ascontiguousarray(rel_pos[::step], float),
+                        np.ascontiguousarray(rel_rot[::step], float), (float(tolerance), ORIENT_TOL, BAT_GIVE_ROUNDS))
     return local[::step], moved[::step]
 
 
