@@ -30,6 +30,7 @@ ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
 FACES = ("keep", "free")
 SOLVERS = ("ccd", "dls")
 TWISTS = ("follow", "lead")
+TRUNK_WIDER = 3.0       # the held trunk's reach widened this much where the bat needs it (trunk_reach)
 TWIST_COLUMN = 2        # ZYX Euler columns z, y, x: x is the twist about the bone in the arms
 
 
@@ -44,6 +45,18 @@ def face_weights(n: int, torso: int) -> np.ndarray:
     w = np.linspace(0.25, 1.0, n) ** 2
     w[:torso] *= 0.1
     return np.ascontiguousarray(w)
+
+
+def trunk_reach(n: int, torso: int, degrees: float) -> np.ndarray:
+    """Bounds ``(3, n)`` rad, on each Euler axis, of how far each of the left chain's ``n``
+    joints may turn from the pose the adaptation starts from: the ``torso`` joints at the
+    chain's root ``degrees`` each (inf: as far as their limits), then, where the bat cannot
+    reach its handle so, TRUNK_WIDER times that, then as far as their limits; the arm's
+    joints always as far as theirs."""
+    reach = np.full((3, n), np.inf)
+    reach[0, :torso] = math.radians(degrees)
+    reach[1, :torso] = math.radians(degrees * TRUNK_WIDER)
+    return reach
 
 
 def twist_only(free: np.ndarray) -> np.ndarray:
@@ -78,6 +91,13 @@ class AdaptSettings:
     # kept face: degrees it turns about the vertical at the hit (+ toward the off side,
     # carried by the blend), on top of face_turn: the ball's azimuth (engine.direction)
     face_yaw: float = 0.0
+    # degrees each spine joint may turn from the source's on each axis (inf: as far as its
+    # limits). Where the arm alone cannot keep the face or the right hand's grip, the trunk
+    # turns, up to 175 deg from the source's at the +-30 cm grid's far corners; held within
+    # 10 deg a joint the chest turns at most ~55 deg there, and the face gives instead (up
+    # to 30 deg off at the cover drive's and square cut's far off-side corners). Only where
+    # the bat cannot reach its handle so does the trunk go further.
+    trunk_reach: float = math.inf
 
 
 @dataclass
@@ -136,6 +156,8 @@ def check_settings(s: AdaptSettings) -> None:
         raise ValueError(f"falloff must be a positive number of cm, got {s.falloff}")
     if not (math.isfinite(s.tolerance) and s.tolerance > 0):
         raise ValueError(f"tolerance must be a positive number of cm, got {s.tolerance}")
+    if math.isnan(s.trunk_reach) or s.trunk_reach < 0:
+        raise ValueError(f"trunk reach must be a number of degrees >= 0 (inf: free), got {s.trunk_reach}")
     if int(s.iterations) < 1:
         raise ValueError(f"iterations must be at least 1, got {s.iterations}")
 
@@ -178,6 +200,7 @@ class Adapter:
         self.rel_pos, self.rel_rot = np.ascontiguousarray(rel_pos), np.ascontiguousarray(rel_rot)
         self._chains: dict[tuple, tuple] = {}
         self._blend_cache: tuple[float, np.ndarray] = (float("nan"), np.empty(0))
+        self._reach_cache: dict[float, np.ndarray] = {}
         # where the right arm hangs off the left-arm chain (Spine2), for the two-arm solve
         rpar = int(self.parents[right.joints[0]])
         self.right_parent_in_left = list(left.joints).index(rpar) if rpar in list(left.joints) else -1
@@ -242,6 +265,12 @@ class Adapter:
             self._blend_cache = (falloff, np.ascontiguousarray(self.blend(falloff)))
         return self._blend_cache[1]
 
+    def _reach_for(self, degrees: float) -> np.ndarray:
+        if degrees not in self._reach_cache:
+            self._reach_cache[degrees] = trunk_reach(len(self.rig.chains["left_arm"].joints),
+                                                     self.right_parent_in_left + 1, degrees)
+        return self._reach_cache[degrees]
+
     def _chain_args(self, settings: AdaptSettings) -> tuple:
         key = (settings.wrist_dof, settings.solver, settings.twist)
         if key not in self._chains:
@@ -284,7 +313,8 @@ class Adapter:
         chains, face_free = self._chain_args(settings)
         adapt_frames(frames, p, self._blend_for(float(settings.falloff)), self._shot_args, (start_local, start_euler),
                       *chains, (bool(settings.fix_right_hand), SOLVERS.index(settings.solver),
-                                float(settings.tolerance), int(settings.iterations), DAMPING, ORIENT_TOL),
+                                float(settings.tolerance), int(settings.iterations), DAMPING, ORIENT_TOL,
+                                self._reach_for(float(settings.trunk_reach)), math.isfinite(settings.trunk_reach)),
                       (settings.face == "keep", face_free, self.face_w, self.face_local,
                        self.face_turn(p, settings) if turn is None else np.asarray(turn, float)),
                       out)

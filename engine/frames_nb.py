@@ -12,7 +12,7 @@ from numba import njit
 from .ccd import ccd_frame
 from .dls import dls_frame
 from .fk_nb import chain_fk, tree_fk
-from .quat_nb import dot, q_at, v_at, v_put, q_angle, qconj, qrot, vadd, vnorm, vsub, widen_limits
+from .quat_nb import dot, q_at, v_at, v_put, q_angle, qconj, qrot, vadd, vnorm, vsub, narrow_limits, widen_limits
 from .step_nb import Chain, copy_rows, scratch
 from .end_nb import FACE_LENGTH, face_solve, gather_chain, grip_solve, grip_target, orient_finish, scatter_chain
 from .arms_nb import both_arms_solve
@@ -46,7 +46,7 @@ def _solve_chain(solver, prot, ppos, ch, local, euler, src_euler, handle, tol, m
 
 
 @njit(cache=True, inline='always')
-def _left_solve(prot, ppos, ch_l, pose, handle, faces, opts, face, s, work):
+def _left_solve(prot, ppos, ch_l, pose, handle, faces, opts, face, s, work, limits):
     """One solve of the left arm (in :func:`_left_arm`, in place on pose = (local, Euler
     angles, start angles)): the bat joint onto ``handle``, then with the face kept the face
     turned toward faces = (blend, the source's normal turned with the hit point, the normal
@@ -54,9 +54,12 @@ def _left_solve(prot, ppos, ch_l, pose, handle, faces, opts, face, s, work):
     target normal, the face's error ~rad)."""
     loc_l, eul_l, src_l = pose
     blend, n_src, n_last, turned = faces
-    _, solver, tol, max_iter, damping, _ = opts
+    solver, tol, max_iter, damping = opts[1], opts[2], opts[3], opts[4]
     keep_face, face_free, face_w, _, face_turn = face
     nl = loc_l.shape[0]
+    l_lo, l_hi, reach = limits
+    widen_limits(l_lo, l_hi, src_l, ch_l.lo, ch_l.hi)
+    narrow_limits(ch_l.lo, ch_l.hi, src_l, reach)     # the trunk within its reach of the start pose
     err, its = _solve_chain(solver, prot, ppos, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
     n_tgt = qrot(_turn_by(face_turn, blend), n_src)
     fe = 0.0
@@ -105,24 +108,31 @@ def _left_arm(i, f, handle, shot, start, left, opts, face, out, bufs, s, work, k
     faces = (blend, n_src, n_last, turned)
     face_slack = HELD_FACE + (1.0 - blend) * HELD_FACE_FAR
     fe_held, its_held, tgt_held = -1.0, 0, n_src
-    for attempt in range(2):    # the bat on its handle and its face first: the humerus held, else let go
+    attempt = 0     # 0: the humerus held, 1: let go, 2 on: the trunk further (the bat first)
+    while True:
         gather_chain(start[0][f], lj, loc_l)
         gather_chain(start[1][f], lj, src_l)
         copy_rows(src_l, eul_l)
-        widen_limits(l_lo, l_hi, src_l, lo_l, hi_l)
         open_window(loc_l, l_hold)
-        if free or attempt == 1:
+        if free or attempt > 0:
             release(l_hold)
-        its, n_tgt, fe = _left_solve(prot, ppos, ch_l, (loc_l, eul_l, src_l), handle, faces, opts, face, s, work)
-        if attempt == 1 or not held(l_hold) or its == 0:
+        its, n_tgt, fe = _left_solve(prot, ppos, ch_l, (loc_l, eul_l, src_l), handle, faces, opts, face, s, work,
+                                     (l_lo, l_hi, opts[6][max(attempt - 1, 0)]))
+        if its == 0 or attempt == opts[6].shape[0]:
             break
         bat_ok = vnorm(vsub(chain_fk(prot, ppos, l_off, l_eoff, loc_l, s.g_rot, s.g_pos), handle)) < tol
-        if bat_ok and fe <= face_slack:
+        if attempt == 0 and held(l_hold):
+            if bat_ok and fe <= face_slack:
+                break
+            if bat_ok:      # the face short of its target: kept, if the free arm gets no nearer
+                copy_rows(loc_l, held_l)
+                copy_rows(eul_l, held_e)
+                fe_held, its_held, tgt_held = fe, its, n_tgt
+            attempt = 1
+        elif bat_ok or not opts[7]:
             break
-        if bat_ok:      # the face short of its target: kept, if the free arm gets no nearer
-            copy_rows(loc_l, held_l)
-            copy_rows(eul_l, held_e)
-            fe_held, its_held, tgt_held = fe, its, n_tgt
+        else:
+            attempt = max(attempt, 1) + 1
     is_held = held(l_hold)
     if fe_held >= 0.0 and fe_held <= fe + face_slack:
         copy_rows(held_l, loc_l)
@@ -176,7 +186,7 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     again. The left arm into out's local rotations of slot i; the right arm in bufs."""
     parents, _, _, src_grot, src_gpos, rel_pos, rel_rot, _, _, _, rp = shot
     lj, l_off, l_eoff, l_free, l_kind, l_lo, l_hi, l_w, l_hold = left
-    _, solver, tol, max_iter, damping, ori_tol = opts
+    _, solver, tol, max_iter, damping, ori_tol, reach, _ = opts
     keep_face, face_free = face[0], face[1]
     loc_l, loc_r, src_l, _, eul, lo, hi, _, _ = bufs
     nl = lj.shape[0]
@@ -185,6 +195,8 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     gather_chain(start[1][f], lj, src_l)
     eul_l[:] = kept[2][i]
     widen_limits(l_lo, l_hi, src_l, lo[:nl], hi[:nl])
+    narrow_limits(lo[:nl], hi[:nl], src_l, reach[0])      # the trunk within its reach, or where the bat took it
+    widen_limits(lo[:nl], hi[:nl], eul_l, lo[:nl], hi[:nl])
     handle = v_at(out[4], i)
     rel_p, rel_q = v_at(rel_pos, f), q_at(rel_rot, f)
     pj = parents[lj[0]]
@@ -223,7 +235,7 @@ def _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s
     bat's error. Returns the grip target of the new left hand."""
     parents, trans, subtree, _, _, rel_pos, rel_rot, _, bat, lhand, rp = shot
     rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w, r_hold = right
-    _, solver, tol, max_iter, damping, ori_tol = opts
+    _, solver, tol, max_iter, damping, ori_tol, reach, _ = opts
     out_local, out_grot, out_gpos, _, out_handle, out_err, _, _ = out
     _, loc_r, _, src_r, eul, lo, hi, _, _ = bufs
     g_rot, g_pos = s.g_rot, s.g_pos
@@ -349,7 +361,9 @@ def adapt_frames(frames, desired, blends, shot, start, left, right, opts, face, 
     the right arm hangs from); start = (local rotations, their limit-branch Euler angles)
     the chains start from; left, right: the arm chains (:data:`engine.step_nb.Chain`'s
     fields as plain tuples); opts = (fix the right hand, solver index, tol cm, iterations,
-    damping, orientation tol rad); face = (keep, free (nl,3), weights (nl,), normal in the
+    damping, orientation tol rad, the left chain's reach from its start pose (R, nl) rad
+    (engine.adapt.trunk_reach: row 0 first, each next one where the bat is not reached
+    within the last), whether row 0 bounds anything); face = (keep, free (nl,3), weights (nl,), normal in the
     bat's frame (3,), turn (3,)): when kept, after the position solve the left arm's
     ``free`` joints turn the bat face to the source's, turned by the rotation vector
     ``turn`` times the frame's blend."""

@@ -191,6 +191,16 @@ def outside(a, lo, hi):
 
 
 @njit(cache=True)
+def narrow_limits(lo, hi, centre, reach):
+    """The limits ``lo/hi (n,3)`` radians, in place, brought within ``reach (n,)`` radians of
+    ``centre (n,3)`` (inside them: :func:`widen_limits` first) on every axis of each joint."""
+    for j in range(lo.shape[0]):
+        for c in range(3):
+            lo[j, c] = max(lo[j, c], centre[j, c] - reach[j])
+            hi[j, c] = min(hi[j, c], centre[j, c] + reach[j])
+
+
+@njit(cache=True)
 def widen_limits(lo, hi, euler, out_lo, out_hi):
     """The limits ``lo/hi (n,3)`` radians widened to take in the start angles ``euler
     (n,3)``: a pose already outside its limits may stay there or move back in, never

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import time
 from pathlib import Path
@@ -25,7 +26,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
               twist="follow", direction=None, elevation=None, out: Optional[Path] = None, bvh=None,
               profile="auto",
               hit_frame="auto", handed=None, scale=None, offset=None, library=None,
-              csv_rotations="euler", leave_out=False, facing="auto") -> dict:
+              csv_rotations="euler", leave_out=False, facing="auto", trunk_reach=None) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
     from engine.adapt import Adapter, AdaptSettings  # numba (0.25 s): when the command runs
     from engine.learnt_solver import LEARNT_SOLVERS, LearntSolver, check
@@ -34,7 +35,8 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
         check_out(out)
     if elevation is not None and (direction is None or bvh is not None):
         raise UserError("--elevation goes with --direction AZ (the ball's azimuth and elevation together)")
-    settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver, twist=twist)
+    settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver, twist=twist,
+                             trunk_reach=math.inf if trunk_reach is None else trunk_reach)
     check(settings)
     learnt = solver in LEARNT_SOLVERS
     if leave_out and not learnt:
@@ -69,6 +71,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     elif out is not None:
         _write(out, rig, shot, a, csv_rotations)
     return {**_summary(rig, shot, a, target, aimed), "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
+            "trunk_reach_deg": trunk_reach,
             **(learnt_summary(solver_, shot, leave_out) if learnt else {}),
             "solve_ms": round(solve_ms, 3), "out": None if out is None else str(out)}
 
@@ -211,7 +214,7 @@ def _write(out: Path, rig, shot, a, csv_rotations: str = "euler") -> None:
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
           "--solver": 1, "--twist": 1, "--direction": 1, "--elevation": 1, "--out": 1, "--bvh": 1, "--profile": 1,
           "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1,
-          "--csv-rotations": 1, "--leave-out": 0, "--facing": 1}
+          "--csv-rotations": 1, "--leave-out": 0, "--facing": 1, "--trunk-reach": 1}
 CSV_ROTATIONS = ("euler", "quaternion")
 MAX_SCALE = 1e4        # cm per file unit: beyond a kilometre a unit is a mistake
 
@@ -245,6 +248,8 @@ def parse_args(args: list[str]) -> dict:
         out["shot_name"] = got["--shot"][0]
     if "--falloff" in got:
         out["falloff"] = falloff_cm("--falloff", got["--falloff"][0])
+    if "--trunk-reach" in got:
+        out["trunk_reach"] = number("--trunk-reach", got["--trunk-reach"][0], low=0.0, high=180.0)
     if "--wrist-dof" in got:
         out["wrist_dof"] = number("--wrist-dof", got["--wrist-dof"][0], choices=WRIST_DOFS)
     if "--solver" in got:
@@ -319,6 +324,10 @@ def register(cli: typer.Typer) -> None:
           --shot NAME --hit X Y Z   pin a shot and give the desired hit point (cm)
           --falloff CM        importance-blend falloff distance (default 90)
           --wrist-dof 0|2     left wrist locked (0, default) or 2 DOF
+          --trunk-reach DEG   hold each spine joint within DEG of the source's
+                              on each axis (default: free); the face and the
+                              right hand's grip give where the arms cannot
+                              keep them, the bat goes further only to reach
           --solver ccd|dls|learnt|learnt+ccd   IK solver (default ccd); learnt:
                               the lead arm where the library's learnt-IK model
                               (Ong & Hilton 2005) says it is for the bat's

@@ -10,7 +10,8 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from app.viewer.settings import (COMPARE_CHOICES, FACES, FALLOFF_BAND, FALLOFF_RANGE, GHOST_MODES, ITERATIONS_RANGE,
-                                 RENDER_SCALE_RANGE, SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TWISTS, ViewerSettings)
+                                 RENDER_SCALE_RANGE, SOLVERS, SPEED_RANGE, TOLERANCE_RANGE, TRUNK_REACH_RANGE, TWISTS,
+                                 ViewerSettings)
 from app.ui.wagonwheel import draw_wagon_wheel
 from app.ui.padwidget import draw_pc_pad
 from app.viewer import pcpad
@@ -178,6 +179,7 @@ def _solver_settings(settings: ViewerSettings) -> None:
         imgui.set_tooltip("keep: after the bat reaches the ball, the arm turns the face back to the source's\n"
                           "(turned a little with the hit point: move it off, the ball goes further off);\n"
                           "free: the position solve alone")
+    _trunk_settings(settings)
     changed, v = imgui.slider_int("iterations", settings.iterations, *ITERATIONS_RANGE)
     if changed:
         settings.iterations = v
@@ -188,6 +190,22 @@ def _solver_settings(settings: ViewerSettings) -> None:
     changed, v = imgui.checkbox("right hand follows the grip", settings.fix_right_hand)
     if changed:
         settings.fix_right_hand = v
+
+
+def _trunk_settings(settings: ViewerSettings) -> None:
+    changed, v = imgui.checkbox("hold the trunk", settings.hold_trunk)
+    if changed:
+        settings.hold_trunk = v
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("each spine joint stays within this many degrees of the source's: far from the\n"
+                          "source's hit point the batsman keeps his posture, and the face and the right\n"
+                          "hand's grip give where the arms alone cannot keep them (the bat still reaches)")
+    if settings.hold_trunk:
+        imgui.same_line()
+        imgui.set_next_item_width(120)
+        changed, v = imgui.slider_float("##trunk_reach", settings.trunk_reach, *TRUNK_REACH_RANGE, "%.0f deg")
+        if changed:
+            settings.trunk_reach = v
 
 
 def _playback_section(settings: ViewerSettings, state: AppState) -> None:

@@ -19,6 +19,7 @@ FALLOFF_BAND = (70.0, 110.0)
 ITERATIONS_RANGE = (1, 500)
 TOLERANCE_RANGE = (1e-4, 1.0)       # cm
 SPEED_RANGE = (0.05, 4.0)
+TRUNK_REACH_RANGE = (0.0, 45.0)     # deg a spine joint may turn from the source's, held
 RENDER_SCALE_RANGE = (0.4, 1.0)     # 3D view resolution / window resolution (slow GPUs)
 SLOW_MOTION_FACTOR = 0.25
 GHOST_MODES = ("off", "mesh", "skeleton")
@@ -29,7 +30,8 @@ MAX_SHOT_NAME_CHARS = 200           # a pinned shot's name
 # What ``set`` checks beyond the type: ranges and choices per key.
 SETTING_RANGES = {"falloff": FALLOFF_RANGE, "iterations": ITERATIONS_RANGE, "tolerance": TOLERANCE_RANGE,
                   "speed": SPEED_RANGE, "render_scale": RENDER_SCALE_RANGE, "frame": (0.0, MAX_FRAME_SETTING),
-                  "direction": (-180.0, 180.0), "elevation": (-60.0, 60.0)}
+                  "direction": (-180.0, 180.0), "elevation": (-60.0, 60.0),
+                  "trunk_reach": TRUNK_REACH_RANGE}
 SETTING_CHOICES = {"solver": SOLVERS, "compare_solver": COMPARE_CHOICES, "twist": TWISTS, "face": FACES,
                    "overlays.ghost": GHOST_MODES, "wrist_dof": WRIST_DOFS}
 # The overlay group is set field by field (``overlays.NAME``), never as a whole. One-off
@@ -63,6 +65,8 @@ class ViewerSettings:
     iterations: int = AdaptSettings.iterations
     tolerance: float = AdaptSettings.tolerance
     fix_right_hand: bool = AdaptSettings.fix_right_hand
+    hold_trunk: bool = False          # the spine within trunk_reach deg a joint of the source's (AdaptSettings)
+    trunk_reach: float = 10.0
     learnt_leave_out: bool = False    # learnt solvers: the model trained without the shot it adapts
     compare_solver: str = "off"       # "off" or a solver whose adapted pose the ghost shows instead of the source
     # scene
@@ -102,6 +106,7 @@ class ViewerSettings:
         self.render_scale = _clamp(_finite(self.render_scale, 1.0), *RENDER_SCALE_RANGE)
         self.direction = _clamp(_finite(self.direction, 0.0), -180.0, 180.0)
         self.elevation = _clamp(_finite(self.elevation, 0.0), -60.0, 60.0)
+        self.trunk_reach = _clamp(_finite(self.trunk_reach, 10.0), *TRUNK_REACH_RANGE)
         t = np.asarray(self.target, float).reshape(-1)[:3]
         self.target = clamp_target(t if t.size == 3 and np.isfinite(t).all() else (0.0, 60.0, 0.0))
         if self.overlays.ghost not in GHOST_MODES:
@@ -111,7 +116,8 @@ class ViewerSettings:
         """The engine's view of these settings (``engine.adapt.AdaptSettings``)."""
         return AdaptSettings(falloff=self.falloff, wrist_dof=self.wrist_dof, solver=self.solver,
                              iterations=self.iterations, tolerance=self.tolerance,
-                             fix_right_hand=self.fix_right_hand, twist=self.twist, face=self.face)
+                             fix_right_hand=self.fix_right_hand, twist=self.twist, face=self.face,
+                             trunk_reach=self.trunk_reach if self.hold_trunk else math.inf)
 
     def aim_key(self) -> tuple | None:
         """The engine key with the asked direction, or None when no direction is asked."""
@@ -127,7 +133,7 @@ class ViewerSettings:
         """Everything the adaptation depends on; a change means re-solve."""
         return (tuple(np.round(self.target, 6)), self.pinned_shot, self.falloff, self.wrist_dof,
                 self.solver, self.iterations, self.tolerance, self.fix_right_hand, self.twist,
-                self.learnt_leave_out, self.face)
+                self.learnt_leave_out, self.face, self.hold_trunk and self.trunk_reach)
 
     def compare_key(self) -> tuple | None:
         """The engine key with the compared solver, or None when no comparison is asked."""

@@ -81,6 +81,23 @@ def test_the_panel_face_choice_reaches_the_engine(state):
     assert ViewerSettings(face="keep").engine_key() != ViewerSettings(face="free").engine_key()
 
 
+def test_the_panel_trunk_hold_reaches_the_engine():
+    """'hold the trunk' off (the default) leaves the engine's trunk free whatever the slider says;
+    on, the slider's reach is the engine's; either changes the engine key; a script's absurd
+    reach is clamped into the slider's range."""
+    import math
+    from app.viewer.settings import TRUNK_REACH_RANGE
+    assert ViewerSettings().adapt_settings().trunk_reach == math.inf
+    assert ViewerSettings(trunk_reach=5.0).adapt_settings().trunk_reach == math.inf
+    held = ViewerSettings(hold_trunk=True, trunk_reach=5.0)
+    assert held.adapt_settings().trunk_reach == 5.0
+    assert held.engine_key() != ViewerSettings().engine_key()
+    assert held.engine_key() != ViewerSettings(hold_trunk=True, trunk_reach=6.0).engine_key()
+    wild = ViewerSettings(hold_trunk=True, trunk_reach=float("nan"))
+    wild.sanitise()
+    assert TRUNK_REACH_RANGE[0] <= wild.trunk_reach <= TRUNK_REACH_RANGE[1]
+
+
 def test_a_direction_asked_on_the_wagon_wheel_is_hit_once_the_target_holds_still(state):
     """Issue 14 item 3 in the viewer: ``aim_direction``/``direction`` (what the wagon wheel
     writes) turn the face only after the target has held still (AIM_SETTLE_S), land within
