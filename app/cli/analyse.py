@@ -3,6 +3,7 @@ batting space). Dissertation 2.5.4-2.5.5, 3.1, 4.2."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ from PIL import Image, ImageDraw
 import typer
 
 from app.cli.render import check_png_out, save_png_atomic
-from app.errors import MAX_POSITION_CM, UserError, cli_errors, numbers, shorten
+from app.errors import MAX_POSITION_CM, UserError, cli_errors, number, numbers, shorten
 from app.errors import falloff as falloff_cm
 from engine import choice
 from engine.library import find_shot
@@ -40,6 +41,7 @@ def register(cli: typer.Typer) -> None:
         solvers: bool = typer.Option(False, "--solvers", help="ccd, dls, learnt and learnt+ccd side by side over the --offsets distances along +-x, +-y, +-z: bat error, grip error, joint-limit hits, us a frame, style RMSE, face angle (medians); --json for JSON."),
         leave_out: bool = typer.Option(False, "--leave-out", help="--solvers: the learnt model of each shot trained without it."),
         library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
+        trunk_reach: float = typer.Option(None, "--trunk-reach", help="--directions: hold each spine joint within this many degrees of the source's (default: free)."),
     ):
         """PCA of each shot: explained variance per component and cumulative (first 5 PCs).
 
@@ -56,7 +58,8 @@ def register(cli: typer.Typer) -> None:
             from engine.adapt import AdaptSettings, check_settings  # numba (0.25 s): when the command runs
             offsets_cm = _parse_offsets(offsets) if style or solvers else None
             falloff = falloff_cm("--falloff", falloff)
-            check_settings(AdaptSettings(falloff=falloff, solver=solver))
+            reach = math.inf if trunk_reach is None else number("--trunk-reach", trunk_reach, low=0.0, high=180.0)
+            check_settings(AdaptSettings(falloff=falloff, solver=solver, trunk_reach=reach))
         rig, shots = load_shots(library)
         if not shots:
             raise UserError("the shot library is empty")
@@ -73,7 +76,7 @@ def register(cli: typer.Typer) -> None:
                 print_solvers(report)
             return
         if directions:
-            report = directions_report(rig, shots, falloff_cm("--falloff", falloff), solver)
+            report = directions_report(rig, shots, falloff_cm("--falloff", falloff), solver, reach)
             if as_json:
                 print(json.dumps(report, indent=1))
             else:
@@ -263,7 +266,7 @@ def source_direction(rig, shot) -> dict:
     return out
 
 
-def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd") -> dict:
+def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd", trunk_reach: float = math.inf) -> dict:
     """Every shot adapted over the GRID_X x GRID_Y offsets (cm, on the plane facing
     the bowler) with the wrist at 0 and 2 DOF: face angle vs the source, face_to_ball,
     contact and the ball's azimuth/elevation (Fig. 2.6's data), a summary per shot
@@ -278,7 +281,7 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd") ->
         src = source_direction(rig, s)
         grid, summary = [], {}
         for dof in (0, 2):
-            rows = _direction_rows(rig, s, adapter, src, dof, falloff, solver)
+            rows = _direction_rows(rig, s, adapter, src, dof, falloff, solver, trunk_reach)
             grid += rows
             ok = [e for e in rows if e["bat_error_cm"] < REACHED_CM]
             pooled[dof]["angle"] += [e["face_angle_deg"] for e in ok]
@@ -309,19 +312,21 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd") ->
                   "rho of azimuth vs the off-side offset is positive; trunk turn = the chest's largest angle from "
                   "the source's over the frames (what keeping the face and the grip costs the posture)",
         "grid_x_cm": list(GRID_X), "grid_y_cm": list(GRID_Y),
-        "settings": {"falloff": falloff, "solver": solver},
+        "settings": {"falloff": falloff, "solver": solver,
+                     "trunk_reach_deg": None if math.isinf(trunk_reach) else trunk_reach},
         "overall": overall,
         "shots": results,
     }
 
 
-def _direction_rows(rig, shot, adapter, src: dict, dof: int, falloff: float, solver: str) -> list[dict]:
+def _direction_rows(rig, shot, adapter, src: dict, dof: int, falloff: float, solver: str,
+                    trunk_reach: float = math.inf) -> list[dict]:
     """One row per grid offset: the adapted hit's bat error, face and ball direction."""
     from app.cli.adapt import hit_summary
     from engine import face
     from engine.adapt import AdaptSettings
 
-    settings = AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver)
+    settings = AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver, trunk_reach=trunk_reach)
     rows = []
     for dy in GRID_Y:
         for dx in GRID_X:
@@ -413,7 +418,9 @@ def print_directions(report: dict) -> None:
               f"{o['turned_from_ball']}, azimuth moves with the hit point in "
               f"{o['shots_azimuth_moves_with_hit_point']}/{len(report['shots'])} shots, trunk turned median "
               f"{o['trunk_turn_median_deg']} p90 {o['trunk_turn_p90_deg']} max {o['trunk_turn_max_deg']} deg")
-    print("(* offset not reached: bat error >= %g cm)" % REACHED_CM)
+    reach = report["settings"].get("trunk_reach_deg")
+    print("(* offset not reached: bat error >= %g cm; the trunk %s)" % (
+        REACHED_CM, "free" if reach is None else f"held within {reach:g} deg a spine joint"))
 
 
 # ------------------------------------------------------------ components strip

@@ -215,6 +215,13 @@ def test_analyse_directions_json_and_table():
     assert src["bat_speed_mps"] > 0
     t = _cli("analyse", "--directions", "--shot", "straight_drive")
     assert "straight_drive" in t and "rho(az, off)" in t and "all shots, 0 DOF" in t and "trunk turned" in t
+    assert d["settings"]["trunk_reach_deg"] is None and "the trunk free" in t
+    # the trunk held: said in the JSON and the table, and no more trunk turned than free
+    held = json.loads(_cli("analyse", "--directions", "--shot", "straight_drive", "--trunk-reach", "5", "--json"))
+    assert held["settings"]["trunk_reach_deg"] == 5.0
+    for dof in ("dof0", "dof2"):
+        assert held["overall"][dof]["trunk_turn_max_deg"] <= d["overall"][dof]["trunk_turn_max_deg"] + 0.5
+    assert "held within 5 deg" in _cli("analyse", "--directions", "--shot", "straight_drive", "--trunk-reach", "5")
 
 
 def test_position_only_ccd_keeps_the_face_better_when_the_roll_joints_follow(rig, library):
