@@ -41,7 +41,7 @@ def register(cli: typer.Typer) -> None:
         solvers: bool = typer.Option(False, "--solvers", help="ccd, dls, learnt and learnt+ccd side by side over the --offsets distances along +-x, +-y, +-z: bat error, grip error, joint-limit hits, us a frame, style RMSE, face angle (medians); --json for JSON."),
         leave_out: bool = typer.Option(False, "--leave-out", help="--solvers: the learnt model of each shot trained without it."),
         library: Path = typer.Option(None, "--library", help="A shot library: a folder with library.json, or the manifest (default: the bundled library)."),
-        trunk_reach: float = typer.Option(None, "--trunk-reach", help="--directions: hold each spine joint within this many degrees of the source's (default: free)."),
+        trunk_reach: float = typer.Option(None, "--trunk-reach", help="--directions, --style: hold each spine joint within this many degrees of the source's (default: free)."),
     ):
         """PCA of each shot: explained variance per component and cumulative (first 5 PCs).
 
@@ -83,7 +83,7 @@ def register(cli: typer.Typer) -> None:
                 print_directions(report)
             return
         if style:
-            print(json.dumps(style_report(rig, shots, offsets_cm, falloff, solver, pcs), indent=1))
+            print(json.dumps(style_report(rig, shots, offsets_cm, falloff, solver, pcs, reach), indent=1))
             return
         if strip is not None:
             info = write_components_strip(rig, shots[0], strip, part)
@@ -165,7 +165,8 @@ def _parse_offsets(text: str) -> list[float]:
 DIRECTIONS = {"off": (-1.0, 0.0, 0.0), "leg": (1.0, 0.0, 0.0), "up": (0.0, 1.0, 0.0), "down": (0.0, -1.0, 0.0)}
 
 
-def style_report(rig, shots, offsets: list[float], falloff: float, solver: str, pcs: int = 3) -> dict:
+def style_report(rig, shots, offsets: list[float], falloff: float, solver: str, pcs: int = 3,
+                 trunk_reach: float = math.inf) -> dict:
     """Style RMSE (2.5.5) of every shot adapted to hit points around its own, with
     the left wrist at 0 and at 2 DOF; upper-body and whole-body PC spaces, the
     first ``pcs`` components of the source."""
@@ -182,7 +183,8 @@ def style_report(rig, shots, offsets: list[float], falloff: float, solver: str, 
                 d = np.asarray(direction) * dist
                 entry = {"offset": f"{name} {dist:g}", "offset_cm": [float(v) for v in d]}
                 for dof in (0, 2):
-                    a = adapter.adapt(s.hit_point + d, AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver))
+                    a = adapter.adapt(s.hit_point + d, AdaptSettings(falloff=falloff, wrist_dof=dof, solver=solver,
+                                                                     trunk_reach=trunk_reach))
                     for p in PARTS:
                         e = pcam.style_error(spaces[p], a.root_positions, a.local_rotations, pcs)
                         entry[f"{p}_dof{dof}"] = round(e, 4)
@@ -211,7 +213,8 @@ def style_report(rig, shots, offsets: list[float], falloff: float, solver: str, 
         "method": f"project each adapted shot into its source's first {pcs} PCs; RMSE over frames of "
                   "the Euclidean score distance; per shot and overall the quadratic mean over offsets",
         "offsets_cm": offsets, "directions": list(DIRECTIONS),
-        "settings": {"falloff": falloff, "solver": solver, "pcs": pcs},
+        "settings": {"falloff": falloff, "solver": solver, "pcs": pcs,
+                     "trunk_reach_deg": None if math.isinf(trunk_reach) else trunk_reach},
         "dissertation": DISSERTATION,
         "overall": overall,
         "agrees_with_dissertation": overall["upper"]["dof0_better"],
