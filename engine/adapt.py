@@ -59,6 +59,16 @@ def trunk_reach(n: int, torso: int, degrees: float) -> np.ndarray:
     return reach
 
 
+def trunk_turn_deg(rig, source_rotations: np.ndarray, global_rotations: np.ndarray) -> float | None:
+    """Degrees the chest (the rig's thorax, ``rig.humerus["chest"]``) of an adapted shot's
+    ``global_rotations (F, J, 4)`` turns furthest from the source's ``source_rotations`` over
+    the frames: what the adaptation costs the trunk's posture (None: a rig without a thorax)."""
+    chest = (getattr(rig, "humerus", None) or {}).get("chest")
+    if chest is None:
+        return None
+    return float(quat.angle_between(global_rotations[:, chest], source_rotations[:, chest]).max())
+
+
 def twist_only(free: np.ndarray) -> np.ndarray:
     """(n,) bool: the chain joints ``free (n, 3)`` whose one free axis is the twist."""
     return (free.sum(axis=1) == 1) & free[:, TWIST_COLUMN]

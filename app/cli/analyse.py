@@ -345,14 +345,10 @@ def _direction_rows(rig, shot, adapter, src: dict, dof: int, falloff: float, sol
 
 
 def _trunk_turn(rig, shot, global_rotations) -> float | None:
-    """Degrees the chest (the rig's thorax, ``rig.humerus["chest"]``) of an adapted shot
-    ``global_rotations (F, J, 4)`` turns furthest from the source's over the frames: what
-    the adaptation costs the trunk's posture (None: a rig without a thorax joint)."""
-    from engine import quat
-    chest = (getattr(rig, "humerus", None) or {}).get("chest")
-    if chest is None:
-        return None
-    return round(float(quat.angle_between(global_rotations[:, chest], shot.fk[0][:, chest]).max()), 2)
+    """engine.adapt.trunk_turn_deg of an adapted ``shot``, rounded."""
+    from engine.adapt import trunk_turn_deg
+    turn = trunk_turn_deg(rig, shot.fk[0], global_rotations)
+    return None if turn is None else round(turn, 2)
 
 
 def _stats(values: list, *which: str) -> dict:

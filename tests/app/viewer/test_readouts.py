@@ -186,3 +186,23 @@ def test_a_fielding_position_asks_for_its_direction(state):
     assert settings.asked_elevation() == 10.0 and settings.aim_key() is not None
     with pytest.raises(UserError, match="mid-off"):
         settings.set("direction", "car park")
+
+
+def test_the_trunk_readout_says_what_the_adaptation_costs_the_posture(state):
+    """"trunk vs source (max)": 0 at the shot's own hit point; off it, the chest's largest turn
+    from the source's (engine.adapt.trunk_turn_deg of the pose drawn), the trunk held or free
+    (held, each spine joint is bounded, not the chest's sum: here 49 deg held against 47 free)."""
+    from engine.adapt import trunk_turn_deg
+    index = [s.name for s in state.shots].index("back_foot_defence")
+    own = default_target(state, index)
+    assert solve(state, ViewerSettings(pinned_shot="back_foot_defence", target=own))
+    assert state.readouts.trunk_turn_deg == pytest.approx(0.0, abs=1e-6)
+    turned = {}
+    for hold in (False, True):
+        settings = ViewerSettings(pinned_shot="back_foot_defence", target=own + np.array([-40.0, -30.0, 0.0]),
+                                  hold_trunk=hold, trunk_reach=10.0)
+        assert solve(state, settings)
+        turned[hold] = state.readouts.trunk_turn_deg
+        assert turned[hold] == pytest.approx(trunk_turn_deg(state.rig, state.shots[index].fk[0],
+                                                            state.adaptation.global_rotations))
+    assert min(turned.values()) > 1.0, turned
