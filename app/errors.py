@@ -81,6 +81,11 @@ def falloff(option: str, value) -> float:
     return number(option, value, MIN_FALLOFF_CM, MAX_FALLOFF_CM)
 
 
+def trunk_reach(option: str, value) -> float:
+    """Degrees a spine joint may turn from the source's (engine.adapt.AdaptSettings.trunk_reach)."""
+    return number(option, value, 0.0, 180.0)
+
+
 # Exceptions that mean "bad input", never a bug worth a traceback.
 def _input_errors():
     from engine.bvh import BvhError      # the engine (numpy) only when an error is described

@@ -103,10 +103,10 @@ class AdaptSettings:
     face_yaw: float = 0.0
     # degrees each spine joint may turn from the source's on each axis (inf: as far as its
     # limits). Where the arm alone cannot keep the face or the right hand's grip, the trunk
-    # turns, up to 175 deg from the source's at the +-30 cm grid's far corners; held within
-    # 10 deg a joint the chest turns at most ~55 deg there, and the face gives instead (up
-    # to 30 deg off at the cover drive's and square cut's far off-side corners). Only where
-    # the bat cannot reach its handle so does the trunk go further.
+    # turns, up to 176 deg from the source's over the +-30 cm grid; held within 10 deg a
+    # joint, up to 102 (where the bat cannot reach its handle so: only there does the trunk
+    # go further), and the face gives instead (up to 30 deg off at the cover drive's and
+    # square cut's far off-side corners). README: "Holding the trunk".
     trunk_reach: float = math.inf
 
 

@@ -404,7 +404,7 @@ def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, 
     answers = [_grip_pass(frames, chains, rel_pos, rel_rot, tolerance, step) for step in passes]
     cost, points = [], []
     lh, rh = rig.skeleton.parents[rig.bat_joint], rig.chains["right_arm"].effector
-    arms = [_elbow_and_hand(rig, name) for name in ("left_arm", "right_arm")]
+    arms = [_elbow_and_hand(ch) for ch in (left, right)]
     for local, moved in answers:
         g_rot, g_pos = _fk(skeleton, Clip(clip.root_positions, local, clip.fps, clip.local_positions))
         t_pos, _ = carried_pose(g_rot[:, lh], g_pos[:, lh], rel_pos, rel_rot)
@@ -416,11 +416,10 @@ def _solve_grips(rig: Rig, skeleton: Skeleton, clip: Clip, rel_pos: np.ndarray, 
     return np.choose(path, [moved for _, moved in answers])
 
 
-def _elbow_and_hand(rig: Rig, name: str) -> list[int]:
-    """Arm chain ``name``'s elbow and hand joints: its last joint, and the last before it that
-    is no roll (twist-only) joint. (Charging every joint of the chains instead: 17 takes
-    with a swing over 10 cm, against 13.)"""
-    ch = chain_arrays(rig, name)
+def _elbow_and_hand(ch) -> list[int]:
+    """An arm chain's (ChainArrays) elbow and hand joints: its last joint, and the last before
+    it that is no roll (twist-only) joint. (Charging every joint of the chains instead: 17
+    takes with a swing over 10 cm, against 13.)"""
     roll = twist_only(ch.free)
     elbow = max(k for k in range(len(ch.joints) - 1) if not roll[k])
     return [int(ch.joints[elbow]), int(ch.joints[-1])]

@@ -235,7 +235,7 @@ def _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s
     bat's error. Returns the grip target of the new left hand."""
     parents, trans, subtree, _, _, rel_pos, rel_rot, _, bat, lhand, rp = shot
     rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w, r_hold = right
-    _, solver, tol, max_iter, damping, ori_tol, reach, _ = opts
+    _, solver, tol, max_iter, damping, ori_tol, _, _ = opts
     out_local, out_grot, out_gpos, _, out_handle, out_err, _, _ = out
     _, loc_r, _, src_r, eul, lo, hi, _, _ = bufs
     g_rot, g_pos = s.g_rot, s.g_pos

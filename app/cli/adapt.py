@@ -13,6 +13,7 @@ import typer
 
 from app.errors import UserError, cli_errors, number, position, shorten
 from app.errors import falloff as falloff_cm
+from app.errors import trunk_reach as trunk_reach_deg
 from engine import choice, field
 from engine.export import EXTENSIONS, write_take
 from engine.library import find_shot
@@ -249,7 +250,7 @@ def parse_args(args: list[str]) -> dict:
     if "--falloff" in got:
         out["falloff"] = falloff_cm("--falloff", got["--falloff"][0])
     if "--trunk-reach" in got:
-        out["trunk_reach"] = number("--trunk-reach", got["--trunk-reach"][0], low=0.0, high=180.0)
+        out["trunk_reach"] = trunk_reach_deg("--trunk-reach", got["--trunk-reach"][0])
     if "--wrist-dof" in got:
         out["wrist_dof"] = number("--wrist-dof", got["--wrist-dof"][0], choices=WRIST_DOFS)
     if "--solver" in got:

@@ -11,8 +11,9 @@ from PIL import Image, ImageDraw
 import typer
 
 from app.cli.render import check_png_out, save_png_atomic
-from app.errors import MAX_POSITION_CM, UserError, cli_errors, number, numbers, shorten
+from app.errors import MAX_POSITION_CM, UserError, cli_errors, numbers, shorten
 from app.errors import falloff as falloff_cm
+from app.errors import trunk_reach as trunk_reach_deg
 from engine import choice
 from engine.library import find_shot
 from engine.userlib import load_shots
@@ -58,7 +59,7 @@ def register(cli: typer.Typer) -> None:
             from engine.adapt import AdaptSettings, check_settings  # numba (0.25 s): when the command runs
             offsets_cm = _parse_offsets(offsets) if style or solvers else None
             falloff = falloff_cm("--falloff", falloff)
-            reach = math.inf if trunk_reach is None else number("--trunk-reach", trunk_reach, low=0.0, high=180.0)
+            reach = math.inf if trunk_reach is None else trunk_reach_deg("--trunk-reach", trunk_reach)
             check_settings(AdaptSettings(falloff=falloff, solver=solver, trunk_reach=reach))
         rig, shots = load_shots(library)
         if not shots:

@@ -20,6 +20,7 @@ ITERATIONS_RANGE = (1, 500)
 TOLERANCE_RANGE = (1e-4, 1.0)       # cm
 SPEED_RANGE = (0.05, 4.0)
 TRUNK_REACH_RANGE = (0.0, 45.0)     # deg a spine joint may turn from the source's, held
+TRUNK_REACH_DEFAULT = 10.0
 RENDER_SCALE_RANGE = (0.4, 1.0)     # 3D view resolution / window resolution (slow GPUs)
 SLOW_MOTION_FACTOR = 0.25
 GHOST_MODES = ("off", "mesh", "skeleton")
@@ -66,7 +67,7 @@ class ViewerSettings:
     tolerance: float = AdaptSettings.tolerance
     fix_right_hand: bool = AdaptSettings.fix_right_hand
     hold_trunk: bool = False          # the spine within trunk_reach deg a joint of the source's (AdaptSettings)
-    trunk_reach: float = 10.0
+    trunk_reach: float = TRUNK_REACH_DEFAULT
     learnt_leave_out: bool = False    # learnt solvers: the model trained without the shot it adapts
     compare_solver: str = "off"       # "off" or a solver whose adapted pose the ghost shows instead of the source
     # scene
@@ -106,7 +107,7 @@ class ViewerSettings:
         self.render_scale = _clamp(_finite(self.render_scale, 1.0), *RENDER_SCALE_RANGE)
         self.direction = _clamp(_finite(self.direction, 0.0), -180.0, 180.0)
         self.elevation = _clamp(_finite(self.elevation, 0.0), -60.0, 60.0)
-        self.trunk_reach = _clamp(_finite(self.trunk_reach, 10.0), *TRUNK_REACH_RANGE)
+        self.trunk_reach = _clamp(_finite(self.trunk_reach, TRUNK_REACH_DEFAULT), *TRUNK_REACH_RANGE)
         t = np.asarray(self.target, float).reshape(-1)[:3]
         self.target = clamp_target(t if t.size == 3 and np.isfinite(t).all() else (0.0, 60.0, 0.0))
         if self.overlays.ghost not in GHOST_MODES:
