@@ -23,7 +23,7 @@ import numpy as np
 from . import quat
 from .ccd import ITERATIONS, KIND_NONE, TOLERANCE, ChainArrays, chain_arrays, limit_euler
 from .dls import DAMPING, default_stiffness
-from .frames_nb import adapt_frames
+from .frames_parallel import run_frames
 from .skeleton import local_translations, relative_pose
 
 ORIENT_TOL = 1e-4       # rad: the right hand's orientation is "there"
@@ -316,19 +316,15 @@ class Adapter:
     def _run(self, frames: np.ndarray, desired, settings: AdaptSettings, start=None, turn=None):
         check_settings(settings)
         p = check_point(desired, "desired hit point")
-        K, J = len(frames), self.parents.shape[0]
-        out = (np.empty((K, J, 4)), np.empty((K, J, 4)), np.empty((K, J, 3)), np.empty(K),
-               np.empty((K, 3)), np.empty(K), np.empty(K), np.empty(K))
         start_local, start_euler = self._start_pose(start)
         chains, face_free = self._chain_args(settings)
-        adapt_frames(frames, p, self._blend_for(float(settings.falloff)), self._shot_args, (start_local, start_euler),
-                      *chains, (bool(settings.fix_right_hand), SOLVERS.index(settings.solver),
-                                float(settings.tolerance), int(settings.iterations), DAMPING, ORIENT_TOL,
-                                self._reach_for(float(settings.trunk_reach)), math.isfinite(settings.trunk_reach)),
-                      (settings.face == "keep", face_free, self.face_w, self.face_local,
-                       self.face_turn(p, settings) if turn is None else np.asarray(turn, float)),
-                      out)
-        return out, p
+        args = (p, self._blend_for(float(settings.falloff)), self._shot_args, (start_local, start_euler))
+        rest = ((bool(settings.fix_right_hand), SOLVERS.index(settings.solver), float(settings.tolerance),
+                 int(settings.iterations), DAMPING, ORIENT_TOL, self._reach_for(float(settings.trunk_reach)),
+                 math.isfinite(settings.trunk_reach)),
+                (settings.face == "keep", face_free, self.face_w, self.face_local,
+                 self.face_turn(p, settings) if turn is None else np.asarray(turn, float)))
+        return run_frames(frames, self.parents.shape[0], args, chains, rest), p
 
     def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None,
               turn=None) -> Adaptation:

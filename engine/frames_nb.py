@@ -350,7 +350,7 @@ def _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, wor
         out_gdeg[i] = math.degrees(q_angle(q_at(out_grot[i], rh), target[1]))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def adapt_frames(frames, desired, blends, shot, start, left, right, opts, face, out):
     """Adapt the frames listed in ``frames`` into output slots 0..len(frames)-1 of ``out`` =
     (local rotations, global rotations, global positions, blend, handle, bat error, grip

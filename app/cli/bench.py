@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 import time
 
 import warnings
@@ -78,8 +79,33 @@ def _slowest_shot(rig, settings, reps: int, rng) -> dict:
         it = iter(range(10 ** 9))
         st = _stats(_time(lambda: adapter.adapt(targets[next(it) % len(targets)], settings), reps), 1e3)
         if worst is None or st["median"] > worst["median"]:
-            worst = dict(st, shot=shot.name, frames=shot.num_frames)
+            worst = dict(st, shot=shot.name, frames=shot.num_frames, adapter=adapter, targets=targets)
     return worst
+
+
+def _threads_vs_one(adapter, targets, settings, reps: int) -> dict:
+    """A whole shot on engine.frames_parallel's threads and on one (``HITPOINT_THREADS=1``),
+    call by call in turn: the two medians (ms), the threads and the median of the paired ratios."""
+    from engine.frames_parallel import worker_count
+    threads = worker_count()
+    saved = os.environ.get("HITPOINT_THREADS")
+    times = {"threads": [], "one": []}
+    try:
+        for k in range(reps + 3):
+            for key, n in (("threads", threads), ("one", 1)):
+                os.environ["HITPOINT_THREADS"] = str(n)
+                t = time.perf_counter()
+                adapter.adapt(targets[k % len(targets)], settings)
+                if k >= 3:      # the first calls warm up
+                    times[key].append(time.perf_counter() - t)
+    finally:
+        if saved is None:
+            os.environ.pop("HITPOINT_THREADS", None)
+        else:
+            os.environ["HITPOINT_THREADS"] = saved
+    ratio = np.median(np.asarray(times["threads"]) / np.asarray(times["one"]))
+    return {"threads": threads, "median_ms": _stats(times["threads"], 1e3)["median"],
+            "one_thread_median_ms": _stats(times["one"], 1e3)["median"], "paired_ratio": round(float(ratio), 3)}
 
 
 def run_bench(reps: int = 200) -> dict:
@@ -106,7 +132,10 @@ def run_bench(reps: int = 200) -> dict:
            "targets": "hit point + uniform(-20, 20) cm"}
     res["one_frame_both_arms_us"] = _stats(_time(one_frame, reps), 1e6)
     res["whole_shot_ms"] = _stats(_time(whole_shot, max(reps // 4, 20)), 1e3)
-    res["whole_shot_ms_slowest_shot"] = _slowest_shot(rig, settings, max(reps // 10, 10), rng)
+    slowest = _slowest_shot(rig, settings, max(reps // 10, 10), rng)
+    res["whole_shot_threads_vs_one"] = dict(_threads_vs_one(slowest.pop("adapter"), slowest.pop("targets"), settings,
+                                                           max(reps // 10, 10)), shot=slowest["shot"])
+    res["whole_shot_ms_slowest_shot"] = slowest
     res["solvers"] = solver_figures(rig)
     grot, gpos = shot.fk
     bind = bind_positions(rig.skeleton)
