@@ -69,6 +69,20 @@ def trunk_turn_deg(rig, source_rotations: np.ndarray, global_rotations: np.ndarr
     return float(quat.angle_between(global_rotations[:, chest], source_rotations[:, chest]).max())
 
 
+def trunk_jump_deg(rig, source_rotations: np.ndarray, global_rotations: np.ndarray) -> float | None:
+    """Degrees the chest (as :func:`trunk_turn_deg`) of an adapted shot's ``global_rotations
+    (F, J, 4)`` turns between two frames beyond the source's own turn there, at most over the
+    frames: a pop the eye sees, where a turn held over the frames reads 0 (None: no thorax)."""
+    chest = (getattr(rig, "humerus", None) or {}).get("chest")
+    if chest is None:
+        return None
+    if len(global_rotations) < 2:
+        return 0.0
+    src, out = source_rotations[:, chest], global_rotations[:, chest]
+    extra = quat.angle_between(out[1:], out[:-1]) - quat.angle_between(src[1:], src[:-1])
+    return float(max(extra.max(), 0.0))
+
+
 def twist_only(free: np.ndarray) -> np.ndarray:
     """(n,) bool: the chain joints ``free (n, 3)`` whose one free axis is the twist."""
     return (free.sum(axis=1) == 1) & free[:, TWIST_COLUMN]

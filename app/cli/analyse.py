@@ -279,7 +279,7 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd", tr
     from engine.adapt import Adapter  # numba (0.25 s): when the command runs
 
     results = []
-    pooled = {d: {"angle": [], "cos": [], "trunk": []} for d in (0, 2)}
+    pooled = {d: {"angle": [], "cos": [], "trunk": [], "jump": []} for d in (0, 2)}
     for s in shots:
         adapter = Adapter(rig, s)
         src = source_direction(rig, s)
@@ -291,6 +291,7 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd", tr
             pooled[dof]["angle"] += [e["face_angle_deg"] for e in ok]
             pooled[dof]["cos"] += [e["face_to_ball"] for e in ok]
             pooled[dof]["trunk"] += [e["trunk_turn_deg"] for e in ok]
+            pooled[dof]["jump"] += [e["trunk_jump_deg"] for e in ok]
             summary[f"dof{dof}"] = _direction_summary(rows, ok)
         results.append({"name": s.name, "source": src, **summary, "grid": grid})
     overall = {}
@@ -305,6 +306,7 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd", tr
             "shots_azimuth_moves_with_hit_point": int(sum(r[f"dof{dof}"]["azimuth_moves_with_hit_point"]
                                                           for r in results)),
             **{f"trunk_turn_{k}_deg": v for k, v in _stats(p["trunk"], "median", "p90", "max").items()},
+            **{f"trunk_jump_{k}_deg": v for k, v in _stats(p["jump"], "median", "p90", "max").items()},
         }
     return {
         "method": "hit point moved by offset_cm (x across the ball's line, -x the off side; y up) on the plane "
@@ -314,7 +316,8 @@ def directions_report(rig, shots, falloff: float = 90.0, solver: str = "ccd", tr
                   "of the velocity just after the impact (0 deg straight back past the bowler, + toward the off "
                   f"side); statistics over offsets reached to {REACHED_CM} cm; Fig. 2.6 holds when Spearman's "
                   "rho of azimuth vs the off-side offset is positive; trunk turn = the chest's largest angle from "
-                  "the source's over the frames (what keeping the face and the grip costs the posture)",
+                  "the source's over the frames (what keeping the face and the grip costs the posture); trunk jump = "
+                  "its largest turn between two frames beyond the source's own turn there (a pop)",
         "grid_x_cm": list(GRID_X), "grid_y_cm": list(GRID_Y),
         "settings": {"falloff": falloff, "solver": solver,
                      "trunk_reach_deg": None if math.isinf(trunk_reach) else trunk_reach},
@@ -337,7 +340,7 @@ def _direction_rows(rig, shot, adapter, src: dict, dof: int, falloff: float, sol
             a = adapter.adapt(shot.hit_point + np.array([dx, dy, 0.0]), settings)
             e = {"wrist_dof": dof, "offset_cm": [dx, dy, 0.0], "bat_error_cm": round(a.bat_error_cm, 4),
                  **hit_summary(rig, shot, a.global_rotations, a.global_positions, choice.BALL_START,
-                               a.desired_hit_point), "trunk_turn_deg": _trunk_turn(rig, shot, a.global_rotations)}
+                               a.desired_hit_point), **_trunk_figures(rig, shot, a.global_rotations)}
             # unwrapped around the source's direction, so a shot near +-180 deg stays continuous
             e["ball_azimuth_deg"] = round(float(src["ball_azimuth_deg"] + face.wrap_deg(
                 e["ball_azimuth_deg"] - src["ball_azimuth_deg"])), 2)
@@ -345,11 +348,13 @@ def _direction_rows(rig, shot, adapter, src: dict, dof: int, falloff: float, sol
     return rows
 
 
-def _trunk_turn(rig, shot, global_rotations) -> float | None:
-    """engine.adapt.trunk_turn_deg of an adapted ``shot``, rounded."""
-    from engine.adapt import trunk_turn_deg
+def _trunk_figures(rig, shot, global_rotations) -> dict:
+    """engine.adapt.trunk_turn_deg and trunk_jump_deg of an adapted ``shot``, rounded."""
+    from engine.adapt import trunk_jump_deg, trunk_turn_deg
     turn = trunk_turn_deg(rig, shot.fk[0], global_rotations)
-    return None if turn is None else round(turn, 2)
+    jump = trunk_jump_deg(rig, shot.fk[0], global_rotations)
+    return {"trunk_turn_deg": None if turn is None else round(turn, 2),
+            "trunk_jump_deg": None if jump is None else round(jump, 2)}
 
 
 def _stats(values: list, *which: str) -> dict:
@@ -380,6 +385,7 @@ def _direction_summary(rows: list[dict], ok: list[dict]) -> dict:
         "azimuth_moves_with_hit_point": bool(rho > 0),
         "rows_strictly_increasing": f"{rows_up}/{len(GRID_Y)}",
         **{f"trunk_turn_{k}_deg": v for k, v in _stats([e["trunk_turn_deg"] for e in ok], "median", "max").items()},
+        **{f"trunk_jump_{k}_deg": v for k, v in _stats([e["trunk_jump_deg"] for e in ok], "median", "max").items()},
     }
 
 
@@ -391,8 +397,8 @@ def print_directions(report: dict) -> None:
         print(f"{r['name']}: source az {s['ball_azimuth_deg']:+.1f} el {s['ball_elevation_deg']:+.1f} "
               f"face_to_ball {s['face_to_ball']:+.2f} ({s['contact']}), bat {s['bat_speed_mps']:.1f} m/s at the hit, "
               f"horizontal peak {s['peak_horizontal_speed_mps']:.1f} m/s {s['peak_frames_after_hit']:+.1f} frames from it")
-        print(f"  {'dx':>5}{'dy':>5} | {'wrist 0 DOF: angle  cos contact    az    el trunk':<50}"
-              "| wrist 2 DOF: angle  cos contact    az    el trunk")
+        print(f"  {'dx':>5}{'dy':>5} | {'wrist 0 DOF: angle  cos contact    az    el trunk  jump':<56}"
+              "| wrist 2 DOF: angle  cos contact    az    el trunk  jump")
         by = {(e["wrist_dof"], e["offset_cm"][0], e["offset_cm"][1]): e for e in r["grid"]}
         for dy in report["grid_y_cm"]:
             for dx in report["grid_x_cm"]:
@@ -401,23 +407,28 @@ def print_directions(report: dict) -> None:
                     e = by[(dof, dx, dy)]
                     mark = "" if e["bat_error_cm"] < REACHED_CM else "*"
                     trunk = "" if e["trunk_turn_deg"] is None else f"{e['trunk_turn_deg']:6.0f}"
+                    jump = "" if e["trunk_jump_deg"] is None else f"{e['trunk_jump_deg']:6.0f}"
                     cells.append(f"{e['face_angle_deg']:12.1f}{e['face_to_ball']:+6.2f} {e['contact']:<5}"
-                                 f"{e['ball_azimuth_deg']:+7.1f}{e['ball_elevation_deg']:+6.1f}{trunk:>6}{mark:<1}")
-                print(f"  {dx:5.0f}{dy:5.0f} |{cells[0]:<51}|{cells[1]}")
+                                 f"{e['ball_azimuth_deg']:+7.1f}{e['ball_elevation_deg']:+6.1f}{trunk:>6}{jump:>6}"
+                                 f"{mark:<1}")
+                print(f"  {dx:5.0f}{dy:5.0f} |{cells[0]:<57}|{cells[1]}")
         for dof in (0, 2):
             m = r[f"dof{dof}"]
             print(f"  {dof} DOF: face angle median {m['face_angle_median_deg']} max {m['face_angle_max_deg']} deg, "
                   f"face {m['face_share']}, turned from the ball {m['turned_from_ball']}, reached {m['reached']}, "
                   f"rho(az, off) {m['spearman_azimuth_vs_off_offset']} -> "
                   f"{'moves with the hit point' if m['azimuth_moves_with_hit_point'] else 'NOT monotonic'}, "
-                  f"trunk turned median {m['trunk_turn_median_deg']} max {m['trunk_turn_max_deg']} deg")
+                  f"trunk turned median {m['trunk_turn_median_deg']} max {m['trunk_turn_max_deg']} deg, "
+                  f"jumped a frame median {m['trunk_jump_median_deg']} max {m['trunk_jump_max_deg']} deg")
     for dof in (0, 2):
         o = report["overall"][f"dof{dof}"]
         print(f"all shots, {dof} DOF: face angle median {o['face_angle_median_deg']} p90 {o['face_angle_p90_deg']} "
               f"max {o['face_angle_max_deg']} deg over {o['offsets']} offsets, turned from the ball "
               f"{o['turned_from_ball']}, azimuth moves with the hit point in "
               f"{o['shots_azimuth_moves_with_hit_point']}/{len(report['shots'])} shots, trunk turned median "
-              f"{o['trunk_turn_median_deg']} p90 {o['trunk_turn_p90_deg']} max {o['trunk_turn_max_deg']} deg")
+              f"{o['trunk_turn_median_deg']} p90 {o['trunk_turn_p90_deg']} max {o['trunk_turn_max_deg']} deg, "
+              f"jumped a frame median {o['trunk_jump_median_deg']} p90 {o['trunk_jump_p90_deg']} "
+              f"max {o['trunk_jump_max_deg']} deg")
     reach = report["settings"].get("trunk_reach_deg")
     print("(* offset not reached: bat error >= %g cm; the trunk %s)" % (
         REACHED_CM, "free" if reach is None else f"held within {reach:g} deg a spine joint"))

@@ -322,7 +322,8 @@ def _error_rows(state: AppState) -> list[tuple[str, str]]:
         return [("bat error at hit frame", f"{_fmt(r.bat_error_cm, '.3f')} cm"),
                 ("grip error (this frame)", f"{_fmt(r.grip_error_cm, '.2f')} cm  {_fmt(r.grip_error_deg, '.1f')} deg"),
                 ("grip error (max)", f"{_fmt(r.max_grip_error_cm, '.2f')} cm"),
-                ("trunk vs source (max)", f"{_fmt(r.trunk_turn_deg, '.0f')} deg")]
+                ("trunk vs source (max)", f"{_fmt(r.trunk_turn_deg, '.0f')} deg"),
+                ("trunk jump a frame (max)", f"{_fmt(r.trunk_jump_deg, '.0f')} deg")]
     c = take.cleanup
     rows = []
     if "bat_error_cm" in c:

@@ -25,6 +25,7 @@ class Readouts:
     face_to_ball: float = float("nan")      # cosine of the face normal and the direction toward the ball
     face_angle_deg: float = float("nan")    # the adapted face against the source's, at the hit frame
     trunk_turn_deg: float = float("nan")    # the chest's largest turn from the source's over the shot
+    trunk_jump_deg: float = float("nan")    # its largest turn between two frames beyond the source's
     ball_azimuth_deg: float = float("nan")  # where the ball goes (DESIGN.md: 0 straight, + off side)
     ball_elevation_deg: float = float("nan")
     source_azimuth_deg: float = float("nan")  # where the source shot sends the ball from its own hit point

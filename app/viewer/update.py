@@ -15,7 +15,7 @@ from app.viewer.picking import TARGET_PLANE_Z, clamp_target
 from app.viewer.settings import ViewerSettings
 from app.viewer.state import AppState, Pose
 from engine import ballistics
-from engine.adapt import Adapter, trunk_turn_deg
+from engine.adapt import Adapter, trunk_jump_deg, trunk_turn_deg
 from engine.choice import BALL_START, choose_shot
 from engine.direction import aim
 from engine.learnt_solver import LEARNT_SOLVERS, LearntSolver
@@ -260,6 +260,8 @@ def solve(state: AppState, settings: ViewerSettings, direction: float | None = N
     state.readouts.max_grip_error_cm = float(np.max(adaptation.grip_error_cm))
     turn = trunk_turn_deg(state.rig, state.shots[index].fk[0], adaptation.global_rotations)
     state.readouts.trunk_turn_deg = float("nan") if turn is None else turn
+    jump = trunk_jump_deg(state.rig, state.shots[index].fk[0], adaptation.global_rotations)
+    state.readouts.trunk_jump_deg = float("nan") if jump is None else jump
     state.readouts.aim_reached = None if aimed is None else bool(aimed.reached)
     state.readouts.aim_range_deg = () if aimed is None else tuple(aimed.range_deg)
     state.readouts.aim_elevation_reached = None if aimed is None else aimed.elevation_reached

@@ -204,6 +204,9 @@ def test_analyse_directions_json_and_table():
     # the trunk's turn from the source's: none where the shot is its own source, some elsewhere
     assert all(e["trunk_turn_deg"] < 1e-3 for e in zero)
     assert all(0.0 <= e["trunk_turn_deg"] <= 180.0 for e in s["grid"]) and max(e["trunk_turn_deg"] for e in s["grid"]) > 1.0
+    # its jumps between frames: none at the shot's own hit point, never more than its turn can make
+    assert all(e["trunk_jump_deg"] < 1e-3 for e in zero)
+    assert all(0.0 <= e["trunk_jump_deg"] <= 2.0 * e["trunk_turn_deg"] + 1e-3 for e in s["grid"])
     src = s["source"]
     assert all(e["ball_azimuth_deg"] == pytest.approx(src["ball_azimuth_deg"], abs=0.01) for e in zero)
     for dof in ("dof0", "dof2"):
@@ -212,9 +215,12 @@ def test_analyse_directions_json_and_table():
         assert {"face_angle_p90_deg", "turned_from_ball", "trunk_turn_p90_deg"} <= set(d["overall"][dof])
         assert s[dof]["trunk_turn_max_deg"] == max(e["trunk_turn_deg"] for e in s["grid"]
                                                    if e["wrist_dof"] == int(dof[-1]) and e["bat_error_cm"] < 0.01)
+        assert s[dof]["trunk_jump_max_deg"] == max(e["trunk_jump_deg"] for e in s["grid"]
+                                                   if e["wrist_dof"] == int(dof[-1]) and e["bat_error_cm"] < 0.01)
+        assert d["overall"][dof]["trunk_jump_max_deg"] == s[dof]["trunk_jump_max_deg"]     # one shot
     assert src["bat_speed_mps"] > 0
     t = _cli("analyse", "--directions", "--shot", "straight_drive")
-    assert "straight_drive" in t and "rho(az, off)" in t and "all shots, 0 DOF" in t and "trunk turned" in t
+    assert "straight_drive" in t and "rho(az, off)" in t and "all shots, 0 DOF" in t and "trunk turned" in t and "jumped a frame" in t
     assert d["settings"]["trunk_reach_deg"] is None and "the trunk free" in t
     # the trunk held: said in the JSON and the table, and no more trunk turned than free
     held = json.loads(_cli("analyse", "--directions", "--shot", "straight_drive", "--trunk-reach", "5", "--json"))

@@ -117,3 +117,23 @@ def test_a_held_trunk_keeps_the_style_closer(rig, shots):
     for part in ("upper", "body"):
         for dof in ("dof0", "dof2"):
             assert held["overall"][part][dof] < free["overall"][part][dof], (part, dof)
+
+
+def test_the_trunk_jump_is_a_pop_not_a_turn(rig, shots):
+    """engine.adapt.trunk_jump_deg: 0 for the source; 0 for a chest turned the same way on
+    every frame (a turn held over the frames, which trunk_turn_deg reads); a spin on one
+    frame reads as its angle, twice (in and out) no more than once."""
+    from engine.adapt import trunk_jump_deg, trunk_turn_deg
+    shot, _ = shots["back_foot_defence"]
+    grot = shot.fk[0]
+    chest = rig.humerus["chest"]
+    assert trunk_jump_deg(rig, grot, grot) == 0.0
+    turned = grot.copy()
+    turned[:, chest] = quat.mul(quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), math.radians(40.0)), grot[:, chest])
+    assert trunk_jump_deg(rig, grot, turned) == pytest.approx(0.0, abs=1e-6)
+    assert trunk_turn_deg(rig, grot, turned) == pytest.approx(40.0, abs=1e-6)
+    still = np.repeat(grot[:1], 9, axis=0)      # a chest that does not move: the jump is the spin
+    spun = still.copy()
+    spun[4, chest] = quat.mul(quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), math.radians(25.0)), still[4, chest])
+    assert trunk_jump_deg(rig, still, spun) == pytest.approx(25.0, abs=1e-6)
+    assert trunk_jump_deg(rig, still[:1], spun[:1]) == 0.0

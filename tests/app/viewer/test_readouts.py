@@ -192,11 +192,12 @@ def test_the_trunk_readout_says_what_the_adaptation_costs_the_posture(state):
     """"trunk vs source (max)": 0 at the shot's own hit point; off it, the chest's largest turn
     from the source's (engine.adapt.trunk_turn_deg of the pose drawn), the trunk held or free
     (held, each spine joint is bounded, not the chest's sum: here 49 deg held against 47 free)."""
-    from engine.adapt import trunk_turn_deg
+    from engine.adapt import trunk_jump_deg, trunk_turn_deg
     index = [s.name for s in state.shots].index("back_foot_defence")
     own = default_target(state, index)
     assert solve(state, ViewerSettings(pinned_shot="back_foot_defence", target=own))
     assert state.readouts.trunk_turn_deg == pytest.approx(0.0, abs=1e-6)
+    assert state.readouts.trunk_jump_deg == pytest.approx(0.0, abs=1e-6)
     turned = {}
     for hold in (False, True):
         settings = ViewerSettings(pinned_shot="back_foot_defence", target=own + np.array([-40.0, -30.0, 0.0]),
@@ -205,4 +206,8 @@ def test_the_trunk_readout_says_what_the_adaptation_costs_the_posture(state):
         turned[hold] = state.readouts.trunk_turn_deg
         assert turned[hold] == pytest.approx(trunk_turn_deg(state.rig, state.shots[index].fk[0],
                                                             state.adaptation.global_rotations))
+        # and its largest jump between two frames, the pop the eye sees ("trunk jump a frame")
+        assert state.readouts.trunk_jump_deg == pytest.approx(trunk_jump_deg(
+            state.rig, state.shots[index].fk[0], state.adaptation.global_rotations))
+        assert 0.0 <= state.readouts.trunk_jump_deg <= 2.0 * turned[hold] + 1e-6
     assert min(turned.values()) > 1.0, turned
