@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -17,6 +18,8 @@ from .frames_nb import adapt_frames
 MAX_WORKERS = 4         # the shots' 67-74 frames: more threads, more hand-off than work
 MIN_FRAMES = 12         # fewer frames to solve a worker: one call (a hand-off costs ~0.1 ms)
 _pool: ThreadPoolExecutor | None = None
+_pool_size = 0
+_pool_lock = threading.Lock()       # the viewer's warm-up thread and its loop may both adapt
 
 
 def worker_count() -> int:
@@ -43,9 +46,19 @@ def _outputs(K: int, J: int) -> tuple:
 
 
 def _own_holds(chains: tuple) -> tuple:
-    """The arm chains' tuples with a private copy of each hold (index 8: its window is
-    rewritten every frame)."""
-    return tuple(ch[:8] + (tuple(a.copy() for a in ch[8]),) + ch[9:] for ch in chains)
+    """The arm chains' tuples (engine.step_nb.Chain's fields, the hold last) with a private
+    copy of each hold: its window is rewritten every frame."""
+    return tuple(ch[:-1] + (tuple(a.copy() for a in ch[-1]),) for ch in chains)
+
+
+def _workers_pool(helpers: int) -> ThreadPoolExecutor:
+    """The shared pool, with room for ``helpers`` threads besides the caller's."""
+    global _pool, _pool_size
+    with _pool_lock:
+        if _pool is None or _pool_size < helpers:
+            _pool_size = max(helpers, MAX_WORKERS - 1)
+            _pool = ThreadPoolExecutor(_pool_size, thread_name_prefix="hitpoint-adapt")
+        return _pool
 
 
 def run_frames(frames: np.ndarray, num_joints: int, args: tuple, chains: tuple, rest: tuple) -> tuple:
@@ -53,7 +66,6 @@ def run_frames(frames: np.ndarray, num_joints: int, args: tuple, chains: tuple, 
     shot, start), chains = (left, right), rest = (opts, face): its outputs for the K frames,
     computed on up to :func:`worker_count` threads (frames dealt out in turn, so the costly
     ones round the hit are shared)."""
-    global _pool
     K = len(frames)
     workers = 1
     if K >= 2 * MIN_FRAMES:     # (one frame, scrubbing: straight to the kernel)
@@ -63,11 +75,10 @@ def run_frames(frames: np.ndarray, num_joints: int, args: tuple, chains: tuple, 
         out = _outputs(K, num_joints)
         adapt_frames(frames, *args, *chains, *rest, out)
         return out
-    if _pool is None or _pool._max_workers < workers - 1:
-        _pool = ThreadPoolExecutor(max(workers - 1, MAX_WORKERS - 1), thread_name_prefix="hitpoint-adapt")
+    pool = _workers_pool(workers - 1)
     shares = [np.ascontiguousarray(frames[w::workers]) for w in range(workers)]
     outs = [_outputs(len(sh), num_joints) for sh in shares]
-    jobs = [_pool.submit(adapt_frames, shares[w], *args, *_own_holds(chains), *rest, outs[w])
+    jobs = [pool.submit(adapt_frames, shares[w], *args, *_own_holds(chains), *rest, outs[w])
             for w in range(1, workers)]
     adapt_frames(shares[0], *args, *chains, *rest, outs[0])
     for job in jobs:
