@@ -59,11 +59,16 @@ def trunk_reach(n: int, torso: int, degrees: float) -> np.ndarray:
     return reach
 
 
+def _chest(rig) -> int | None:
+    """The rig's thorax joint (``rig.humerus["chest"]``), or None."""
+    return (getattr(rig, "humerus", None) or {}).get("chest")
+
+
 def trunk_turn_deg(rig, source_rotations: np.ndarray, global_rotations: np.ndarray) -> float | None:
     """Degrees the chest (the rig's thorax, ``rig.humerus["chest"]``) of an adapted shot's
     ``global_rotations (F, J, 4)`` turns furthest from the source's ``source_rotations`` over
     the frames: what the adaptation costs the trunk's posture (None: a rig without a thorax)."""
-    chest = (getattr(rig, "humerus", None) or {}).get("chest")
+    chest = _chest(rig)
     if chest is None:
         return None
     return float(quat.angle_between(global_rotations[:, chest], source_rotations[:, chest]).max())
@@ -73,7 +78,7 @@ def trunk_jump_deg(rig, source_rotations: np.ndarray, global_rotations: np.ndarr
     """Degrees the chest (as :func:`trunk_turn_deg`) of an adapted shot's ``global_rotations
     (F, J, 4)`` turns between two frames beyond the source's own turn there, at most over the
     frames: a pop the eye sees, where a turn held over the frames reads 0 (None: no thorax)."""
-    chest = (getattr(rig, "humerus", None) or {}).get("chest")
+    chest = _chest(rig)
     if chest is None:
         return None
     if len(global_rotations) < 2:

@@ -56,6 +56,8 @@ def _workers_pool(helpers: int) -> ThreadPoolExecutor:
     global _pool, _pool_size
     with _pool_lock:
         if _pool is None or _pool_size < helpers:
+            if _pool is not None:       # a larger HITPOINT_THREADS: the old pool's threads go
+                _pool.shutdown(wait=False)
             _pool_size = max(helpers, MAX_WORKERS - 1)
             _pool = ThreadPoolExecutor(_pool_size, thread_name_prefix="hitpoint-adapt")
         return _pool
