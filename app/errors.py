@@ -47,6 +47,8 @@ def number(option: str, value, low: float | None = None, high: float | None = No
         x = float(value)
     except (TypeError, ValueError):
         raise UserError(f"{option}: {given!r} is not a number") from None
+    except OverflowError:       # an integer past a float's range
+        raise UserError(f"{option} must be a finite number, got {given}") from None
     if not math.isfinite(x):
         raise UserError(f"{option} must be a finite number, got {given}")
     if choices is not None and x not in choices:

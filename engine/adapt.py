@@ -23,6 +23,8 @@ import numpy as np
 from . import quat
 from .ccd import ITERATIONS, KIND_NONE, TOLERANCE, ChainArrays, chain_arrays, limit_euler
 from .dls import DAMPING, default_stiffness
+from .carry import CARRY_REACH_DEG, carried_start
+from .arms_nb import TORSO_WEIGHT
 from .frames_parallel import run_frames
 from .skeleton import local_translations, relative_pose
 
@@ -43,7 +45,7 @@ def face_weights(n: int, torso: int) -> np.ndarray:
     change at the hit frame median 4.2 deg (position only 4.1; the torso at the arm's
     weights 5.7, the arm alone then the torso 4.3 at 1.4x the time)."""
     w = np.linspace(0.25, 1.0, n) ** 2
-    w[:torso] *= 0.1
+    w[:torso] *= TORSO_WEIGHT
     return np.ascontiguousarray(w)
 
 
@@ -127,6 +129,13 @@ class AdaptSettings:
     # go further), and the face gives instead (up to 30 deg off at the cover drive's and
     # square cut's far off-side corners). README: "Holding the trunk".
     trunk_reach: float = math.inf
+    # the hit frame solved first and its trunk's turn carried to the other frames by their
+    # blend (engine.carry; not with a held trunk): the body leans into the hit instead of
+    # turning at it alone (over 162 offsets, wrist locked: the chest popping >20 deg a frame
+    # beyond the source's in 22 adaptations -> 14, 2 DOF 16 -> 5), but the right hand misses
+    # its grip at more far corners (12 of the 207 +-30 cm targets, against 4) and a hit that
+    # turns the trunk far spreads it (README, "The lean carried"). Off: every frame alone
+    carry_lean: bool = False
 
 
 @dataclass
@@ -234,6 +243,7 @@ class Adapter:
         rpar = int(self.parents[right.joints[0]])
         self.right_parent_in_left = list(left.joints).index(rpar) if rpar in list(left.joints) else -1
         self.face_w = face_weights(len(left.joints), self.right_parent_in_left + 1)
+        self.trunk = np.asarray(left.joints[:self.right_parent_in_left + 1], np.int64)   # joints the arms share
         self.hit_point = self.src_gpos[self.hit_frame, self.bat].copy()
         self.bat_positions = self.src_gpos[:, self.bat]
         n = np.asarray(rig.bat["face_normal"], float)
@@ -337,13 +347,32 @@ class Adapter:
         p = check_point(desired, "desired hit point")
         start_local, start_euler = self._start_pose(start)
         chains, face_free = self._chain_args(settings)
-        args = (p, self._blend_for(float(settings.falloff)), self._shot_args, (start_local, start_euler))
+        blend = self._blend_for(float(settings.falloff))
         rest = ((bool(settings.fix_right_hand), SOLVERS.index(settings.solver), float(settings.tolerance),
                  int(settings.iterations), DAMPING, ORIENT_TOL, self._reach_for(float(settings.trunk_reach)),
                  math.isfinite(settings.trunk_reach)),
                 (settings.face == "keep", face_free, self.face_w, self.face_local,
                  self.face_turn(p, settings) if turn is None else np.asarray(turn, float)))
-        return run_frames(frames, self.parents.shape[0], args, chains, rest), p
+        J, h = self.parents.shape[0], self.hit_frame
+
+        def solve(which, local, euler):
+            return run_frames(which, J, (p, blend, self._shot_args, (local, euler)), chains, rest)
+
+        held = settings.trunk_reach < 360.0        # (a reach past every limit holds nothing)
+        if not settings.carry_lean or held or blend[h] == 0.0 or np.array_equal(frames, [h]):
+            return solve(frames, start_local, start_euler), p
+        hit = solve(np.array([h], np.int64), start_local, start_euler)
+        carried = carried_start(start_local, start_euler, hit[0][0], self.trunk, blend, frames, h, self.rig.limits)
+        if carried is None:
+            return solve(frames, start_local, start_euler), p
+        # the others held near the lean they start from, so their own solves do not turn
+        # the trunk again on top of it
+        rest = (rest[0][:6] + (self._reach_for(CARRY_REACH_DEG), True), rest[1])
+        out = solve(frames, *carried)
+        at_hit = frames == h        # the hit frame keeps its own solve
+        for mine, its in zip(out, hit):
+            mine[at_hit] = its[0]
+        return out, p
 
     def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None,
               turn=None) -> Adaptation:

@@ -17,6 +17,12 @@ from .end_nb import END_LM, FACE_TOL, GRIP_LENGTH, grip_residual, grip_target, l
 
 NO_FACE = (0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # both_arms_solve's face term, off
 BAT_WEIGHT = 10.0       # the two-arm solve: the bat on the ball matters most
+# the adapter's torso weight (1 / stiffness) against the arms' 1: the arms reach what they
+# can and the trunk turns for the rest (the face solve's, engine.adapt.face_weights). At 1
+# the trunk, with the longest levers, took most of the least-squares step: the chest turned
+# up to 77 deg more at one frame than at the next over the +-30 cm grid, 37 at 0.1. (The
+# clean-up's takes keep 1: a take's frames are chosen together, engine.path_nb.)
+TORSO_WEIGHT = 0.1
 
 
 @njit(cache=True, inline='always')
@@ -80,9 +86,10 @@ def _both_residual(prot, ppos, arms, loc_l, loc_r, bufs, goal, r):
 
 
 @njit(cache=True)
-def _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols, dofs):
+def _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols, dofs, torso_w):
     """Jacobian columns of both arms' free Euler angles against :func:`_both_residual`'s
-    rows (``dofs``: rows of the two arms' angles, left first); returns how many."""
+    rows (``dofs``: rows of the two arms' angles, left first), the torso's (the left chain up
+    to ``rp``) scaled by sqrt(``torso_w``), their weight; returns how many."""
     l_free, r_free = free
     gl_rot, gl_pos, gr_rot, gr_pos = bufs
     nl = eul_l.shape[0]
@@ -110,11 +117,13 @@ def _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols,
                 cg = (-cg[0], -cg[1], -cg[2])
                 co = (-L * a[0], -L * a[1], -L * a[2])
             cn = cross(a, nrm)
+            sw = math.sqrt(torso_w) if k <= rp else 1.0
             for i in range(3):
-                cols[m, i] = BAT_WEIGHT * cb[i]
-                cols[m, 3 + i] = cg[i]
-                cols[m, 6 + i] = co[i]
-                cols[m, 9 + i] = face[0] * cn[i]
+                cols[m, i] = sw * BAT_WEIGHT * cb[i]
+                cols[m, 3 + i] = sw * cg[i]
+                cols[m, 6 + i] = sw * co[i]
+                cols[m, 9 + i] = sw * face[0] * cn[i]
+            cols[m, 12] = sw
             dofs[m, 0] = k
             dofs[m, 1] = c
             m += 1
@@ -129,6 +138,7 @@ def _both_columns(prot, rp, free, bufs, eul_l, eul_r, bat, t_pos, face, r, cols,
                 cols[m, i] = 0.0
                 cols[m, 3 + i] = cg[i]
                 cols[m, 6 + i] = L * a[i]
+            cols[m, 12] = 1.0
             dofs[m, 0] = nl + k
             dofs[m, 1] = c
             m += 1
@@ -153,6 +163,7 @@ class BothArmsProblem(NamedTuple):
     bufs: tuple         # both_fk's
     work: tuple         # (cols (3(nl+nr),13), dofs, A (12,12), x (12,), r (12,))
     backup: tuple       # copies of pose's arrays
+    torso_w: float      # the torso joints' weight (1 / stiffness) against the arms' 1
 
 
 @njit(cache=True, inline='always')
@@ -180,7 +191,8 @@ def _both_step(problem, state, damping):
     eul_l, eul_r = problem.halves
     lo, hi = problem.limits
     cols, dofs, A, x, r = problem.work
-    m = _both_columns(prot, arms[4], free, bufs, eul_l, eul_r, state[1], state[2], face, r, cols, dofs)
+    m = _both_columns(prot, arms[4], free, bufs, eul_l, eul_r, state[1], state[2], face, r, cols, dofs,
+                      problem.torso_w)
     lsq_apply(cols, dofs, m, rows, r, eul, lo, hi, damping, MAX_STEP, A, x)
     put_free_locals(loc_l, eul_l, free[0])
     put_free_locals(loc_r, eul_r, free[1])
@@ -211,7 +223,7 @@ lm_parts(BothArmsProblem, _both_save, _both_restore, _both_step, _both_eval, _bo
 
 
 @njit(cache=True)
-def both_arms_solve(prot, ppos, arms, free, pose, limits, goal, tol, ori_tol, max_iter):
+def both_arms_solve(prot, ppos, arms, free, pose, limits, goal, tol, ori_tol, max_iter, torso_w):
     """Damped Newton on both arm chains at once: the bat on its handle AND the
     right hand on its grip (the torso joints shared by both chains can then
     lean to give the right arm its reach), and, with a face weight (goal's ``face``, as
@@ -219,17 +231,17 @@ def both_arms_solve(prot, ppos, arms, free, pose, limits, goal, tol, ori_tol, ma
     alone cannot get back to the grip. arms as :func:`both_fk`'s; free = (left (nl,3),
     right (nr,3)); pose = (left local (nl,4), right local (nr,4), Euler angles of both
     (nl+nr,3), left first), limits = (lo, hi) of those angles; goal = (handle, face,
-    rel_p, rel_q). Returns the grip's (position cm, angle rad) error."""
+    rel_p, rel_q); torso_w: the torso joints' weight against the arms' 1 (the adapter's
+    TORSO_WEIGHT). Returns the grip's (position cm, angle rad) error."""
     loc_l, loc_r, eul = pose
     nl = loc_l.shape[0]
     nr = loc_r.shape[0]
     bufs = (np.empty((nl, 4)), np.empty((nl, 3)), np.empty((nr, 4)), np.empty((nr, 3)))
-    cols = np.zeros((3 * (nl + nr), 13))
-    cols[:, 12] = 1.0                  # no stiffness weights
+    cols = np.zeros((3 * (nl + nr), 13))        # (column 12: each one's sqrt weight)
     work = (cols, np.empty((3 * (nl + nr), 2), np.int64), np.empty((12, 12)), np.empty(12), np.empty(12))
     problem = BothArmsProblem(prot, ppos, arms, free, pose, (eul[:nl], eul[nl:]), limits, goal,
                               12 if goal[1][0] > 0.0 else 9, (tol, ori_tol), bufs, work,
-                              (np.empty((nl, 4)), np.empty((nr, 4)), np.empty((nl + nr, 3))))
+                              (np.empty((nl, 4)), np.empty((nr, 4)), np.empty((nl + nr, 3))), torso_w)
     lm_loop(problem, lm_eval(problem), END_LM, (max_iter, 0.0, 1e-3, NO))
     r = work[4]
     return math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5]), math.sqrt(r[6] * r[6] + r[7] * r[7] + r[8] * r[8]) / GRIP_LENGTH

@@ -164,7 +164,7 @@ def _two_arms(prot, ppos, bat0, lh0, hold, arms, free, pose, limits, rel, tols, 
     nl = l_off.shape[0]
     handle = bat0
     for _ in range(rounds):
-        both_arms_solve(prot, ppos, arms, free, pose, limits, (handle, NO_FACE, rel_p, rel_q), tol, ori_tol, 40)
+        both_arms_solve(prot, ppos, arms, free, pose, limits, (handle, NO_FACE, rel_p, rel_q), tol, ori_tol, 40, 1.0)
         bat, d, oe = _grip_error(prot, ppos, arms, loc_l, loc_r, bufs, rel_p, rel_q)
         if vnorm(d) < GRIP_CM and oe < GRIP_RAD:
             break

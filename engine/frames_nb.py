@@ -14,8 +14,8 @@ from .dls import dls_frame
 from .fk_nb import chain_fk, tree_fk
 from .quat_nb import dot, q_at, v_at, v_put, q_angle, qconj, qrot, vadd, vnorm, vsub, narrow_limits, widen_limits
 from .step_nb import Chain, copy_rows, scratch
-from .end_nb import FACE_LENGTH, face_solve, gather_chain, grip_solve, grip_target, orient_finish, scatter_chain
-from .arms_nb import both_arms_solve
+from .end_nb import FACE_LENGTH, GRIP_LENGTH, face_solve, gather_chain, grip_solve, grip_target, orient_finish, scatter_chain
+from .arms_nb import TORSO_WEIGHT, both_arms_solve
 from .humerus_nb import held, open_window, release
 
 GRIP_CM = 0.05          # right hand further than this from its grip ...
@@ -210,7 +210,7 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     n_last = (n_face[i, 1, 0], n_face[i, 1, 1], n_face[i, 1, 2])
     for _try in range(2):   # the grip before the face: without it if they clash
         pe, oe = both_arms_solve(prl, ppl, arms, (both_free, right[3]), (loc_l, loc_r, eul), (lo, hi),
-                                 (handle, (fw, n_tgt, n_last), rel_p, rel_q), tol, ori_tol, 40)
+                                 (handle, (fw, n_tgt, n_last), rel_p, rel_q), tol, ori_tol, 80, TORSO_WEIGHT)
         if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
             break
         fw = 0.0
@@ -227,11 +227,11 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
 
 
 @njit(cache=True, inline='always')
-def _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s, work, kept):
+def _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s, work, kept, torso):
     """Frame f's right hand onto its grip ``target`` = (position, rotation) from out's slot
     i (in :func:`_hand_frames`): wrist position first (as the dissertation), then the
     joints that turn the hand without moving the wrist; if limits keep the hand off its
-    grip, both arms together (:func:`_torso_helps`). Slot i gets the pose, its FK and the
+    grip and ``torso``, both arms together (:func:`_torso_helps`). Slot i gets the pose, its FK and the
     bat's error. Returns the grip target of the new left hand."""
     parents, trans, subtree, _, _, rel_pos, rel_rot, _, bat, lhand, rp = shot
     rj, r_off, r_eoff, r_free, r_kind, r_lo, r_hi, r_w, r_hold = right
@@ -258,10 +258,12 @@ def _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s
     oe = orient_finish(prot, ppos, r_off, r_eoff, loc_r, eul_r, src_r, r_free, r_kind, lo_r, hi_r, r_hold, t_rot,
                        (g_rot, g_pos), 8, ori_tol)
     eff = chain_fk(prot, ppos, r_off, r_eoff, loc_r, g_rot, g_pos)
-    if vnorm(vsub(eff, t_pos)) >= tol or oe >= ori_tol:
+    pe = vnorm(vsub(eff, t_pos))
+    if pe >= tol or oe >= ori_tol:
+        before = math.hypot(pe, GRIP_LENGTH * oe)
         pe, oe = grip_solve(prot, ppos, r_off, r_eoff, loc_r, eul_r, r_free, lo_r, hi_r, r_hold, t_pos, t_rot,
                             tol, ori_tol, 30, work)
-        if (pe > GRIP_CM or oe > GRIP_RAD) and rp >= 0:
+        if (pe > GRIP_CM or oe > GRIP_RAD) and rp >= 0 and (torso or math.hypot(pe, GRIP_LENGTH * oe) < before):
             # out of the right arm's reach: let the torso help
             _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work, kept)
     scatter_chain(loc_r, rj, out_local[i])
@@ -328,13 +330,14 @@ def _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, wor
             open_window(bufs[1], r_hold)
             gather_chain(start[0][f], lj, bufs[0])
             open_window(bufs[0], l_hold)        # (the first pass left the last frame's)
-            t = _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s, work, kept)
+            t = _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s, work, kept,
+                            not (held(r_hold) or held(l_hold)))
             if (held(r_hold) or held(l_hold)) and (_off_grip(out, i, rh, t) or out_err[i] > max(tol, err0)
                                                   or _face_error(out, i, lhand, kept) > face0 + HELD_FACE):
                 _put_slot(saved, out, i)
                 release(r_hold)
                 release(l_hold)
-                t = _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s, work, kept)
+                t = _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s, work, kept, True)
                 if kept[3][i] and _off_grip(out, i, rh, t):
                     # the left arm's held pose keeps the grip out of reach: both arms free
                     _put_slot(saved, out, i)
@@ -344,7 +347,7 @@ def _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, wor
                     _left_arm(i, f, v_at(out[4], i), shot, start, left, opts, face, out, bufs, s, work, kept, True)
                     t = grip_target(q_at(out_grot[i], lhand), v_at(out_gpos[i], lhand), v_at(rel_pos, f),
                                     q_at(rel_rot, f))
-                    t = _right_hand(i, f, t, shot, start, left, right, opts, face, out, bufs, s, work, kept)
+                    t = _right_hand(i, f, t, shot, start, left, right, opts, face, out, bufs, s, work, kept, True)
             target = t
         out_gcm[i] = vnorm(vsub(v_at(out_gpos[i], rh), target[0]))
         out_gdeg[i] = math.degrees(q_angle(q_at(out_grot[i], rh), target[1]))

@@ -27,7 +27,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
               twist="follow", direction=None, elevation=None, out: Optional[Path] = None, bvh=None,
               profile="auto",
               hit_frame="auto", handed=None, scale=None, offset=None, library=None,
-              csv_rotations="euler", leave_out=False, facing="auto", trunk_reach=None) -> dict:
+              csv_rotations="euler", leave_out=False, facing="auto", trunk_reach=None, carry_lean=False) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
     from engine.adapt import Adapter, AdaptSettings  # numba (0.25 s): when the command runs
     from engine.learnt_solver import LEARNT_SOLVERS, LearntSolver, check
@@ -37,7 +37,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     if elevation is not None and (direction is None or bvh is not None):
         raise UserError("--elevation goes with --direction AZ (the ball's azimuth and elevation together)")
     settings = AdaptSettings(falloff=falloff, wrist_dof=wrist_dof, solver=solver, twist=twist,
-                             trunk_reach=math.inf if trunk_reach is None else trunk_reach)
+                             trunk_reach=math.inf if trunk_reach is None else trunk_reach, carry_lean=carry_lean)
     check(settings)
     learnt = solver in LEARNT_SOLVERS
     if leave_out and not learnt:
@@ -72,7 +72,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
     elif out is not None:
         _write(out, rig, shot, a, csv_rotations)
     return {**_summary(rig, shot, a, target, aimed), "falloff": falloff, "wrist_dof": wrist_dof, "solver": solver,
-            "trunk_reach_deg": trunk_reach,
+            "trunk_reach_deg": trunk_reach, "carry_lean": carry_lean,
             **(learnt_summary(solver_, shot, leave_out) if learnt else {}),
             "solve_ms": round(solve_ms, 3), "out": None if out is None else str(out)}
 
@@ -215,7 +215,8 @@ def _write(out: Path, rig, shot, a, csv_rotations: str = "euler") -> None:
 _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof": 1,
           "--solver": 1, "--twist": 1, "--direction": 1, "--elevation": 1, "--out": 1, "--bvh": 1, "--profile": 1,
           "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1,
-          "--csv-rotations": 1, "--leave-out": 0, "--facing": 1, "--trunk-reach": 1}
+          "--csv-rotations": 1, "--leave-out": 0, "--facing": 1, "--trunk-reach": 1,
+          "--carry-lean": 0}
 CSV_ROTATIONS = ("euler", "quaternion")
 MAX_SCALE = 1e4        # cm per file unit: beyond a kilometre a unit is a mistake
 
@@ -256,6 +257,8 @@ def parse_args(args: list[str]) -> dict:
     if "--solver" in got:
         out["solver"] = got["--solver"][0]
     out["leave_out"] = "--leave-out" in got
+    if "--carry-lean" in got:
+        out["carry_lean"] = True
     if "--twist" in got:
         from engine.adapt import TWISTS  # numba (0.25 s): only when the option is given
         out["twist"] = got["--twist"][0]
@@ -329,6 +332,9 @@ def register(cli: typer.Typer) -> None:
                               on each axis (default: free); the face and the
                               right hand's grip give where the arms cannot
                               keep them, the bat goes further only to reach
+          --carry-lean        the hit frame solved first and the frames round
+                              it started from its lean (default: every frame
+                              on its own, as the dissertation)
           --solver ccd|dls|learnt|learnt+ccd   IK solver (default ccd); learnt:
                               the lead arm where the library's learnt-IK model
                               (Ong & Hilton 2005) says it is for the bat's

@@ -192,14 +192,26 @@ def _solver_settings(settings: ViewerSettings) -> None:
         settings.fix_right_hand = v
 
 
-def _trunk_settings(settings: ViewerSettings) -> None:
-    changed, v = imgui.checkbox("hold the trunk", settings.hold_trunk)
-    if changed:
-        settings.hold_trunk = v
+def _toggle(label: str, value: bool, tip: str) -> bool:
+    """A checkbox with a tooltip; the value it leaves."""
+    changed, v = imgui.checkbox(label, value)
     if imgui.is_item_hovered():
-        imgui.set_tooltip("each spine joint stays within this many degrees of the source's: far from the\n"
-                          "source's hit point the batsman keeps his posture, and the face and the right\n"
-                          "hand's grip give where the arms alone cannot keep them (the bat still reaches)")
+        imgui.set_tooltip(tip)
+    return v if changed else value
+
+
+def _trunk_settings(settings: ViewerSettings) -> None:
+    if not settings.hold_trunk:
+        settings.carry_lean = _toggle(
+            "lean into the hit", settings.carry_lean,
+            "the hit frame is solved first and the frames around it start from its trunk,\n"
+            "by their share of the adaptation: the body leans into the hit over the frames\n"
+            "instead of turning at the hit alone (off: every frame solved on its own)")
+    settings.hold_trunk = _toggle(
+        "hold the trunk", settings.hold_trunk,
+        "each spine joint stays within this many degrees of the source's: far from the\n"
+        "source's hit point the batsman keeps his posture, and the face and the right\n"
+        "hand's grip give where the arms alone cannot keep them (the bat still reaches)")
     if settings.hold_trunk:
         imgui.same_line()
         imgui.set_next_item_width(120)

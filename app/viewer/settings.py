@@ -68,6 +68,7 @@ class ViewerSettings:
     fix_right_hand: bool = AdaptSettings.fix_right_hand
     hold_trunk: bool = False          # the spine within trunk_reach deg a joint of the source's (AdaptSettings)
     trunk_reach: float = TRUNK_REACH_DEFAULT
+    carry_lean: bool = AdaptSettings.carry_lean   # the hit's lean carried to the frames round it (engine.carry)
     learnt_leave_out: bool = False    # learnt solvers: the model trained without the shot it adapts
     compare_solver: str = "off"       # "off" or a solver whose adapted pose the ghost shows instead of the source
     # scene
@@ -118,7 +119,8 @@ class ViewerSettings:
         return AdaptSettings(falloff=self.falloff, wrist_dof=self.wrist_dof, solver=self.solver,
                              iterations=self.iterations, tolerance=self.tolerance,
                              fix_right_hand=self.fix_right_hand, twist=self.twist, face=self.face,
-                             trunk_reach=self.trunk_reach if self.hold_trunk else math.inf)
+                             trunk_reach=self.trunk_reach if self.hold_trunk else math.inf,
+                             carry_lean=bool(self.carry_lean))
 
     def aim_key(self) -> tuple | None:
         """The engine key with the asked direction, or None when no direction is asked."""
@@ -134,7 +136,7 @@ class ViewerSettings:
         """Everything the adaptation depends on; a change means re-solve."""
         return (tuple(np.round(self.target, 6)), self.pinned_shot, self.falloff, self.wrist_dof,
                 self.solver, self.iterations, self.tolerance, self.fix_right_hand, self.twist,
-                self.learnt_leave_out, self.face, self.hold_trunk and self.trunk_reach)
+                self.learnt_leave_out, self.face, self.hold_trunk and self.trunk_reach, bool(self.carry_lean))
 
     def compare_key(self) -> tuple | None:
         """The engine key with the compared solver, or None when no comparison is asked."""

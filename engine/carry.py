@@ -1,0 +1,62 @@
+"""The hit frame's lean carried to the frames around it (a displacement map, Lee & Shin
+1999): the adapter solves every frame alone, so where the hit frame needs the trunk to turn
+(the right hand out of reach, the face kept) and its neighbours do not, the body turns at the
+hit alone and pops back (over the +-30 cm grid 17 adaptations with the chest popping over
+20 deg a frame, docs/history.md). Solving the hit frame first and starting every other frame
+from its trunk, turned by that frame's importance blend, leans the body into the hit over the
+frames the falloff adapts and keeps each frame's own solve (a frame still depends only on
+itself and the hit frame). Those frames' trunks are then held within CARRY_REACH_DEG a joint
+of the lean they start from (engine.adapt.trunk_reach's tiers), or each frame's own solve
+turns the trunk again on top of the carried lean: over the +-30 cm grid (126 adaptations,
+wrist locked, measured 2026-12-07 against every frame alone) the chest's largest pop a frame
+beyond the source's went over 20 deg in 15 -> 9, at most 36.5 -> 43.1 deg, better by over
+5 deg in 15, worse in 6 (free after the carry: 9, 59.7, 15 and 10); elbow steps over 20 cm
+12 -> 8; the chest's largest turn from the source's, median 12.9 -> 14.4, p90 32.7 -> 38.0 (the lean
+spread over the frames, as meant), at most 101 -> 69. Where the hit itself turns the trunk
+far (the leg glance 30 cm toward leg and 15 up: 64 deg), its neighbours carried are worse:
+docs/history.md, "Pops in the adapted shot: three mends"."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import quat
+from .ccd import limit_euler
+
+CARRY_REACH_DEG = 10.0  # the carried frames' trunk joints within this of their start on each axis
+
+
+def carried_start(start_local: np.ndarray, start_euler: np.ndarray, hit_local: np.ndarray, trunk: np.ndarray,
+                  blend: np.ndarray, frames: np.ndarray, hit: int, limits: np.ndarray):
+    """The chains' start pose with the hit frame's trunk carried (None: the hit frame left its
+    trunk alone, or no frame to carry it to): local rotations ``(F, J, 4)`` and their Euler
+    angles ``(F, J, 3)`` rad, equal to ``start_local``/``start_euler`` except
+    at ``frames`` with a blend, where the ``trunk`` joints (indices, root-most first) are
+    turned by the hit frame's displacement (``hit_local (J, 4)``, the hit's solved local
+    rotations, against ``start_local[hit]``) slerped by ``blend (F,)``. ``limits (J, 3, 2)``
+    degrees pick the Euler branch (engine.ccd.limit_euler) and bound the free axes; a locked
+    axis keeps the start's angle. Blend 0 leaves a frame as it was."""
+    rows = frames[(blend[frames] > 0.0) & (frames != hit)]
+    if rows.size == 0 or trunk.size == 0 or np.array_equal(hit_local[trunk], start_local[hit, trunk]):
+        return None
+    disp = quat.mul(hit_local[trunk], quat.conjugate(start_local[hit, trunk]))       # (T, 4)
+    ident = np.broadcast_to(quat.identity((len(trunk),)), disp.shape)
+    turn = quat.slerp(ident, disp, np.broadcast_to(blend[rows, None], (rows.size, len(trunk))))  # (R, T, 4)
+    turned = quat.mul(turn, start_local[np.ix_(rows, trunk)])
+    # into the limits (a turn carried onto another frame's trunk can leave them), the locked
+    # axes as they were: the Euler angles the solvers start from, and their rotations
+    lim = np.asarray(limits, float)[trunk]                                              # (T, 3, 2) deg
+    deg = limit_euler(_with_rows(start_local, rows, trunk, turned), limits)[:, trunk]  # (R, T, 3)
+    free = lim[..., 0] < lim[..., 1]
+    deg = np.where(free, np.clip(deg, lim[..., 0], lim[..., 1]), np.degrees(start_euler[np.ix_(rows, trunk)]))
+    local = start_local.copy()
+    local[np.ix_(rows, trunk)] = quat.from_euler(deg)
+    euler = start_euler.copy()
+    euler[np.ix_(rows, trunk)] = np.radians(deg)
+    return local, euler
+
+
+def _with_rows(start_local, rows, trunk, turned):
+    """The start's frames ``rows`` ``(R, J, 4)`` with the trunk joints' rotations ``turned``."""
+    out = start_local[rows].copy()
+    out[:, trunk] = turned
+    return out
