@@ -45,7 +45,7 @@ def carried_start(start_local: np.ndarray, start_euler: np.ndarray, hit_local: n
     # into the limits (a turn carried onto another frame's trunk can leave them), the locked
     # axes as they were: the Euler angles the solvers start from, and their rotations
     lim = np.asarray(limits, float)[trunk]                                              # (T, 3, 2) deg
-    deg = limit_euler(_with_rows(start_local, rows, trunk, turned), limits)[:, trunk]  # (R, T, 3)
+    deg = limit_euler(turned, lim)                                                      # (R, T, 3)
     free = lim[..., 0] < lim[..., 1]
     deg = np.where(free, np.clip(deg, lim[..., 0], lim[..., 1]), np.degrees(start_euler[np.ix_(rows, trunk)]))
     local = start_local.copy()
@@ -54,9 +54,3 @@ def carried_start(start_local: np.ndarray, start_euler: np.ndarray, hit_local: n
     euler[np.ix_(rows, trunk)] = np.radians(deg)
     return local, euler
 
-
-def _with_rows(start_local, rows, trunk, turned):
-    """The start's frames ``rows`` ``(R, J, 4)`` with the trunk joints' rotations ``turned``."""
-    out = start_local[rows].copy()
-    out[:, trunk] = turned
-    return out
