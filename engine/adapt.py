@@ -23,7 +23,7 @@ import numpy as np
 from . import quat
 from .ccd import ITERATIONS, KIND_NONE, TOLERANCE, ChainArrays, chain_arrays, limit_euler
 from .dls import DAMPING, default_stiffness
-from .carry import CARRY_REACH_DEG, carried_start
+from .carry import CARRY_REACH_DEG, carried_start, served
 from .arms_nb import TORSO_WEIGHT
 from .frames_parallel import run_frames
 from .skeleton import local_translations, relative_pose
@@ -132,9 +132,9 @@ class AdaptSettings:
     # the hit frame solved first and its trunk's turn carried to the other frames by their
     # blend (engine.carry; not with a held trunk): the body leans into the hit instead of
     # turning at it alone (over 162 offsets, wrist locked: the chest popping >20 deg a frame
-    # beyond the source's in 22 adaptations -> 14, 2 DOF 16 -> 5), but the right hand misses
-    # its grip at more far corners (12 of the 207 +-30 cm targets, against 4) and a hit that
-    # turns the trunk far spreads it (README, "The lean carried"). Off: every frame alone
+    # beyond the source's in 22 adaptations -> 14, 2 DOF 16 -> 5; the right hand off its grip
+    # at the same 4 of the 207 +-30 cm targets), but a hit that turns the trunk far spreads it
+    # (the worst pop 47.5 -> 67 deg; README, "Two mends and an option"). Off: every frame alone
     carry_lean: bool = False
 
 
@@ -367,8 +367,16 @@ class Adapter:
             return solve(frames, start_local, start_euler), p
         # the others held near the lean they start from, so their own solves do not turn
         # the trunk again on top of it
-        rest = (rest[0][:6] + (self._reach_for(CARRY_REACH_DEG), True), rest[1])
-        out = solve(frames, *carried)
+        held_rest = (rest[0][:6] + (self._reach_for(CARRY_REACH_DEG), True), rest[1])
+        out = run_frames(frames, J, (p, blend, self._shot_args, carried), chains, held_rest)
+        # a frame whose bat needed the trunk past that hold, or whose right hand it kept off
+        # the grip, is solved alone: the hit's lean does not help it (the leg glance 30 cm
+        # toward leg and 15 up: frame 32's chest 115 deg from the source's, alone 23)
+        again = ~served(out[0], carried[1][frames], out[6], out[7], self.trunk, self.rig.limits) & (frames != h)
+        if again.any():
+            alone = solve(frames[again], start_local, start_euler)
+            for mine, its in zip(out, alone):
+                mine[again] = its
         at_hit = frames == h        # the hit frame keeps its own solve
         for mine, its in zip(out, hit):
             mine[at_hit] = its[0]

@@ -7,7 +7,9 @@ from its trunk, turned by that frame's importance blend, leans the body into the
 frames the falloff adapts and keeps each frame's own solve (a frame still depends only on
 itself and the hit frame). Those frames' trunks are then held within CARRY_REACH_DEG a joint
 of the lean they start from (engine.adapt.trunk_reach's tiers), or each frame's own solve
-turns the trunk again on top of the carried lean: over the +-30 cm grid (126 adaptations,
+turns the trunk again on top of the carried lean; a frame that hold does not serve (its bat
+needing the wider tiers, its right hand kept off the grip: :func:`served`) is solved alone.
+Before that rule: over the +-30 cm grid (126 adaptations,
 wrist locked, measured 2026-12-07 against every frame alone) the chest's largest pop a frame
 beyond the source's went over 20 deg in 15 -> 9, at most 36.5 -> 43.1 deg, better by over
 5 deg in 15, worse in 6 (free after the carry: 9, 59.7, 15 and 10); elbow steps over 20 cm
@@ -23,6 +25,8 @@ from . import quat
 from .ccd import limit_euler
 
 CARRY_REACH_DEG = 10.0  # the carried frames' trunk joints within this of their start on each axis
+# a right hand this far off its grip is off it (tests/engine/test_adapt.py's bound)
+GRIP_OFF_CM, GRIP_OFF_DEG = 0.5, 5.0
 
 
 def carried_start(start_local: np.ndarray, start_euler: np.ndarray, hit_local: np.ndarray, trunk: np.ndarray,
@@ -54,3 +58,17 @@ def carried_start(start_local: np.ndarray, start_euler: np.ndarray, hit_local: n
     euler[np.ix_(rows, trunk)] = np.radians(deg)
     return local, euler
 
+
+
+
+def served(solved_local: np.ndarray, start_euler: np.ndarray, grip_cm: np.ndarray, grip_deg: np.ndarray,
+           trunk: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """``(K,)`` bool: which frames the carried lean served: solved (local rotations ``(K, J,
+    4)`` from Euler angles ``(K, J, 3)`` rad) with every ``trunk`` joint within
+    CARRY_REACH_DEG an axis of its start (further, the bat needed engine.adapt.trunk_reach's
+    wider tiers) and the right hand on its grip (``grip_cm``, ``grip_deg`` ``(K,)``)."""
+    lim = np.asarray(limits, float)[trunk]
+    moved = limit_euler(solved_local[:, trunk], lim) - np.degrees(start_euler[:, trunk])
+    moved = (moved + 180.0) % 360.0 - 180.0
+    held = (np.abs(moved) <= CARRY_REACH_DEG + 1e-3).all(axis=(1, 2))
+    return held & (grip_cm < GRIP_OFF_CM) & (grip_deg < GRIP_OFF_DEG)
