@@ -16,7 +16,9 @@ beyond the source's went over 20 deg in 15 -> 9, at most 36.5 -> 43.1 deg, bette
 12 -> 8; the chest's largest turn from the source's, median 12.9 -> 14.4, p90 32.7 -> 38.0 (the lean
 spread over the frames, as meant), at most 101 -> 69. Where the hit itself turns the trunk
 far (the leg glance 30 cm toward leg and 15 up: 64 deg), its neighbours carried are worse:
-docs/history.md, "Pops in the adapted shot: three mends"."""
+docs/history.md, "Pops in the adapted shot: three mends". With :func:`served` and the hold
+narrowed from 10 to 5 deg the carry is the default (docs/history.md, "The lean carried by
+default")."""
 from __future__ import annotations
 
 import numpy as np
@@ -24,7 +26,7 @@ import numpy as np
 from . import quat
 from .ccd import limit_euler
 
-CARRY_REACH_DEG = 10.0  # the carried frames' trunk joints within this of their start on each axis
+CARRY_REACH_DEG = 5.0  # the carried frames' trunk joints within this of their start on each axis
 # a right hand this far off its grip is off it (tests/engine/test_adapt.py's bound)
 GRIP_OFF_CM, GRIP_OFF_DEG = 0.5, 5.0
 

@@ -27,7 +27,7 @@ def run_adapt(target=None, shot_name=None, hit=None, falloff=90.0, wrist_dof=0, 
               twist="follow", direction=None, elevation=None, out: Optional[Path] = None, bvh=None,
               profile="auto",
               hit_frame="auto", handed=None, scale=None, offset=None, library=None,
-              csv_rotations="euler", leave_out=False, facing="auto", trunk_reach=None, carry_lean=False) -> dict:
+              csv_rotations="euler", leave_out=False, facing="auto", trunk_reach=None, carry_lean=True) -> dict:
     """The adapt command's work, returned as the JSON-able summary."""
     from engine.adapt import Adapter, AdaptSettings  # numba (0.25 s): when the command runs
     from engine.learnt_solver import LEARNT_SOLVERS, LearntSolver, check
@@ -216,7 +216,7 @@ _FLAGS = {"--target": 3, "--shot": 1, "--hit": 3, "--falloff": 1, "--wrist-dof":
           "--solver": 1, "--twist": 1, "--direction": 1, "--elevation": 1, "--out": 1, "--bvh": 1, "--profile": 1,
           "--hit-frame": 1, "--handed": 1, "--scale": 1, "--offset": 3, "--library": 1,
           "--csv-rotations": 1, "--leave-out": 0, "--facing": 1, "--trunk-reach": 1,
-          "--carry-lean": 0}
+          "--carry-lean": 0, "--no-carry-lean": 0}
 CSV_ROTATIONS = ("euler", "quaternion")
 MAX_SCALE = 1e4        # cm per file unit: beyond a kilometre a unit is a mistake
 
@@ -257,8 +257,10 @@ def parse_args(args: list[str]) -> dict:
     if "--solver" in got:
         out["solver"] = got["--solver"][0]
     out["leave_out"] = "--leave-out" in got
-    if "--carry-lean" in got:
-        out["carry_lean"] = True
+    if "--carry-lean" in got and "--no-carry-lean" in got:
+        raise UserError("--carry-lean and --no-carry-lean contradict each other")
+    if "--no-carry-lean" in got:
+        out["carry_lean"] = False
     if "--twist" in got:
         from engine.adapt import TWISTS  # numba (0.25 s): only when the option is given
         out["twist"] = got["--twist"][0]
@@ -332,9 +334,10 @@ def register(cli: typer.Typer) -> None:
                               on each axis (default: free); the face and the
                               right hand's grip give where the arms cannot
                               keep them, the bat goes further only to reach
-          --carry-lean        the hit frame solved first and the frames round
-                              it started from its lean (default: every frame
-                              on its own, as the dissertation)
+          --no-carry-lean     every frame solved on its own, as the
+                              dissertation (default: the hit frame first and
+                              the frames round it started from its lean;
+                              --carry-lean says so)
           --solver ccd|dls|learnt|learnt+ccd   IK solver (default ccd); learnt:
                               the lead arm where the library's learnt-IK model
                               (Ong & Hilton 2005) says it is for the bat's

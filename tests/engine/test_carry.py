@@ -9,7 +9,7 @@ from engine.carry import carried_start
 from engine.library import load_library
 
 # the +-30 cm grid of docs/history.md ("Pops in the adapted shot"): 134 offsets a shot
-CARRIED = AdaptSettings(carry_lean=True)
+CARRIED, ALONE = AdaptSettings(carry_lean=True), AdaptSettings(carry_lean=False)
 OFFSETS = np.array([o for o in np.stack(np.meshgrid(*[(-30.0, -15.0, 0.0, 15.0, 30.0)] * 2, (-30.0, 0.0, 30.0),
                                                     indexing="ij"), -1).reshape(-1, 3)
                     if 0.0 < np.linalg.norm(o) <= 30.0 + 1e-9])
@@ -58,7 +58,7 @@ def test_the_hit_frame_is_solved_as_alone_and_blend_0_is_the_source(shots):
     for name in ("cover_drive", "back_foot_defence"):
         shot, ad = shots[name]
         target = ad.hit_point + np.array([0.0, -30.0, 0.0])
-        on, off = ad.adapt(target, CARRIED), ad.adapt(target)
+        on, off = ad.adapt(target, CARRIED), ad.adapt(target, ALONE)
         h = ad.hit_frame
         assert np.array_equal(on.local_rotations[h], off.local_rotations[h])
         assert on.bat_error_cm == off.bat_error_cm
@@ -92,20 +92,25 @@ def test_the_lean_comes_in_over_the_frames_not_at_the_hit(rig, shots):
     assert max(pops.values()) <= 50.0
 
 
-def test_adapt_s_carry_lean_option(shots):
-    """`hitpoint adapt --carry-lean` carries the hit's lean (off by default): the JSON says
-    which, the hit the same either way; the flag takes no value."""
+def test_the_lean_is_carried_by_default_and_the_cli_can_turn_it_off(shots):
+    """The engine carries the hit's lean unless told not to; `hitpoint adapt --no-carry-lean`
+    solves every frame alone: the JSON says which, the hit the same either way; the flags take
+    no value and cannot both be given."""
     from app.cli.adapt import parse_args, run_adapt
     from app.errors import UserError
+    assert AdaptSettings().carry_lean is True
     shot, ad = shots["on_drive"]
     hit = [float(v) for v in ad.hit_point + (0.0, -30.0, 0.0)]
-    args = parse_args(["--shot", "on_drive", "--hit", *map(str, hit), "--carry-lean"])
-    assert args["carry_lean"] is True and "carry_lean" not in parse_args(["--shot", "on_drive"])
-    with pytest.raises(UserError, match="takes no value"):
-        parse_args(["--carry-lean=1"])
-    carried, alone = run_adapt(**args), run_adapt(shot_name="on_drive", hit=np.array(hit))
+    args = parse_args(["--shot", "on_drive", "--hit", *map(str, hit), "--no-carry-lean"])
+    assert args["carry_lean"] is False and "carry_lean" not in parse_args(["--shot", "on_drive", "--carry-lean"])
+    for bad, says in ((["--no-carry-lean=1"], "takes no value"), (["--carry-lean", "--no-carry-lean"], "contradict")):
+        with pytest.raises(UserError, match=says):
+            parse_args(bad)
+    alone, carried = run_adapt(**args), run_adapt(shot_name="on_drive", hit=np.array(hit))
     assert alone["carry_lean"] is False and carried["carry_lean"] is True
     assert alone["face_angle_deg"] == carried["face_angle_deg"] and alone["bat_error_cm"] == carried["bat_error_cm"]
+    whole_alone = ad.adapt(np.array(hit), ALONE)
+    assert not np.array_equal(ad.adapt(np.array(hit)).local_rotations, whole_alone.local_rotations)
 
 
 def test_a_frame_the_hold_cannot_serve_is_solved_alone(rig, shots):
@@ -118,7 +123,7 @@ def test_a_frame_the_hold_cannot_serve_is_solved_alone(rig, shots):
     from engine.ccd import limit_euler
     shot, ad = shots["leg_glance"]
     target, h = ad.hit_point + np.array([30.0, 15.0, 0.0]), ad.hit_frame
-    on, off = ad.adapt(target, CARRIED), ad.adapt(target)
+    on, off = ad.adapt(target, CARRIED), ad.adapt(target, ALONE)
     frames = np.arange(ad.num_frames)
     start_local, start_euler = carried_start(ad.src_local, ad.src_euler, off.local_rotations[h], ad.trunk, on.blend,
                                              frames, h, rig.limits)

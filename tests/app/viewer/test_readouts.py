@@ -99,12 +99,12 @@ def test_the_panel_trunk_hold_reaches_the_engine():
 
 
 def test_the_lean_carried_is_the_engine_s_and_re_solves():
-    """'lean into the hit' (off by default, as the engine) reaches AdaptSettings.carry_lean and
+    """'lean into the hit' (on by default, as the engine) reaches AdaptSettings.carry_lean and
     changes the engine key."""
-    assert ViewerSettings().adapt_settings().carry_lean is False
-    on = ViewerSettings(carry_lean=True)
-    assert on.adapt_settings().carry_lean is True
-    assert on.engine_key() != ViewerSettings().engine_key()
+    assert ViewerSettings().adapt_settings().carry_lean is True
+    off = ViewerSettings(carry_lean=False)
+    assert off.adapt_settings().carry_lean is False
+    assert off.engine_key() != ViewerSettings().engine_key()
 
 
 def test_a_direction_asked_on_the_wagon_wheel_is_hit_once_the_target_holds_still(state):
