@@ -12,7 +12,7 @@ that changed and the delay has passed.
 
 The file is plain data (JSON of numbers, strings, booleans), atomically written
 (``engine.atomic``). Reading it trusts nothing: a file that is not valid JSON,
-too large, deeper than the JSON limits, not version 1 or from a newer Hitpoint
+too large, deeper than the JSON limits, not a version >= 1 or from a newer Hitpoint
 is renamed aside (``session.corrupt-<time>.json`` or ``session.newer-<time>.json``,
 never over an earlier one) with one panel line, and the viewer starts clean; a
 field of the wrong type, non-finite or out of its bounds is dropped (one panel
@@ -44,7 +44,11 @@ from app.viewer.pcpad import MAX_TAKES_PER_SHOT, PRESET_LABELS, TAKE_KINDS, Take
 from engine import atomic
 from engine.synth import check_scores, check_times   # what synthesis will accept
 
-SESSION_VERSION = 1
+SESSION_VERSION = 2
+# Settings whose default changed at a version: a file older than it saved the old default
+# for a user who never chose, so it is not restored (version 2: the lean carried by default,
+# engine.carry; a version-1 file says carry_lean false unless the user turned it on).
+DEFAULT_CHANGED_AT = {"carry_lean": 2}
 SESSION_FILE = "session.json"
 DATA_DIR_ENV = "HITPOINT_DATA_DIR"
 AUTOSAVE_QUIET_S = 1.0          # saved this long after the last change...
@@ -151,6 +155,8 @@ def apply(data: dict, settings, state, camera) -> list[str]:
                                 ("pc_pad", _apply_pad, state)):
         value = data.get(section, {})
         if isinstance(value, dict):
+            if section == "settings":
+                value = {k: v for k, v in value.items() if data["version"] >= DEFAULT_CHANGED_AT.get(k, 0)}
             fn(value, target, dropped)
         else:
             dropped.append(section)
