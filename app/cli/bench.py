@@ -109,6 +109,24 @@ def _threads_vs_one(adapter, targets, settings, reps: int) -> dict:
             "one_thread_median_ms": _stats(times["one"], 1e3)["median"], "paired_ratio": round(float(ratio), 3)}
 
 
+def _carried_vs_alone(adapter, targets, settings, reps: int) -> dict:
+    """A whole shot with the hit's lean carried (engine.carry: the hit frame solved first,
+    frames it does not serve again) and with every frame alone, call by call in turn, to
+    the same targets: the two medians (ms) and the median of the paired ratios."""
+    from dataclasses import replace
+    ways = {"carried": replace(settings, carry_lean=True), "alone": replace(settings, carry_lean=False)}
+    times = {k: [] for k in ways}
+    for k in range(reps + 3):
+        for key, s in ways.items():
+            t = time.perf_counter()
+            adapter.adapt(targets[k % len(targets)], s)
+            if k >= 3:      # the first calls warm up
+                times[key].append(time.perf_counter() - t)
+    ratio = np.median(np.asarray(times["carried"]) / np.asarray(times["alone"]))
+    return {"carried_median_ms": _stats(times["carried"], 1e3)["median"],
+            "alone_median_ms": _stats(times["alone"], 1e3)["median"], "paired_ratio": round(float(ratio), 3)}
+
+
 def run_bench(reps: int = 200) -> dict:
     """The engine's figures (medians, p95; see ``_stats``) on the first bundled shot at its
     hit frame, targets within 20 cm of its hit point; ikpy on the same left-arm chain."""
@@ -137,6 +155,8 @@ def run_bench(reps: int = 200) -> dict:
     res["whole_shot_threads_vs_one"] = dict(_threads_vs_one(slow_adapter, slow_targets, settings, max(reps // 10, 10)),
                                             shot=slowest["shot"])
     res["whole_shot_ms_slowest_shot"] = slowest
+    res["whole_shot_carried_vs_alone"] = dict(_carried_vs_alone(slow_adapter, slow_targets, settings,
+                                                                max(reps // 10, 10)), shot=slowest["shot"])
     res["solvers"] = solver_figures(rig)
     grot, gpos = shot.fk
     bind = bind_positions(rig.skeleton)

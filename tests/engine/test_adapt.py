@@ -359,6 +359,8 @@ def test_cli_bench_json():
         assert res[key]["median"] > 0 and res[key]["p95"] >= res[key]["median"]
     if res.get("ikpy_left_arm_ms"):
         assert res["ikpy_over_ours"] > 0
+    paired = res["whole_shot_carried_vs_alone"]
+    assert paired["carried_median_ms"] > 0 and paired["alone_median_ms"] > 0 and paired["paired_ratio"] > 0
 
 
 @pytest.mark.parametrize("solver", ["ccd", "dls"])
