@@ -131,11 +131,11 @@ class AdaptSettings:
     trunk_reach: float = math.inf
     # the hit frame solved first and its trunk's turn carried to the other frames by their
     # blend (engine.carry; not with a held trunk): the body leans into the hit instead of
-    # turning at it alone. Over 162 offsets, wrist locked / 2 DOF, against every frame alone:
-    # the chest popping >20 deg a frame beyond the source's in 22 -> 8 / 16 -> 4 adaptations,
-    # the worst pop 47.5 -> 32.1 / 31.8 -> 23.2 deg, the right hand off its grip at the same
-    # 4 of the 207 +-30 cm targets (README, "Two mends and a default"). False: every frame
-    # alone, as the dissertation
+    # turning at it alone. Over the +-30 cm grid (122 offsets above the ground), wrist locked
+    # / 2 DOF, against every frame alone: the chest popping >20 deg a frame beyond the
+    # source's in 13 -> 5 / 8 -> 2 adaptations, the worst pop 36.5 -> 25.5 / 29.3 -> 20.2 deg;
+    # the right hand on its grip where alone it is (README, "Two mends and a default").
+    # False: every frame alone, as the dissertation
     carry_lean: bool = True
 
 

@@ -80,7 +80,8 @@ def test_one_frame_equals_the_whole_shot_with_the_lean_carried(shots):
 def test_the_lean_comes_in_over_the_frames_not_at_the_hit(rig, shots):
     """Over the +-30 cm grid (126 adaptations, every shot, wrist locked) the chest popped more
     than 20 deg a frame beyond the source's in 17 adaptations, up to 77 deg, each frame solved
-    alone as before 2026-12-07; carried, 9, up to 43. The bounds leave room, not a free pass."""
+    alone as before 2026-12-07; alone now 15, up to 36.5; carried (held within 5 deg), 5, up to
+    25.5. The bounds leave room, but less than every frame alone does."""
     pops = {}
     for name, (shot, ad) in shots.items():
         for o in OFFSETS:
@@ -88,8 +89,8 @@ def test_the_lean_comes_in_over_the_frames_not_at_the_hit(rig, shots):
             assert a.bat_error_cm < 0.01, (name, o)
             pops[name, tuple(o)] = trunk_jump_deg(rig, ad.src_grot, a.global_rotations)
     big = {k: v for k, v in pops.items() if v > 20.0}
-    assert len(big) <= 10, sorted(big.items(), key=lambda kv: -kv[1])
-    assert max(pops.values()) <= 50.0
+    assert len(big) <= 8, sorted(big.items(), key=lambda kv: -kv[1])
+    assert max(pops.values()) <= 32.0
 
 
 def test_the_lean_is_carried_by_default_and_the_cli_can_turn_it_off(shots):
