@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import quat
+from .carry_nb import carry_trunk
 from .ccd import limit_euler
 from .frames_nb import GRIP_CM, GRIP_RAD
 
@@ -43,20 +44,12 @@ def carried_start(start_local: np.ndarray, start_euler: np.ndarray, hit_local: n
     rows = frames[(blend[frames] > 0.0) & (frames != hit)]
     if rows.size == 0 or trunk.size == 0 or np.array_equal(hit_local[trunk], start_local[hit, trunk]):
         return None
-    disp = quat.mul(hit_local[trunk], quat.conjugate(start_local[hit, trunk]))       # (T, 4)
-    ident = np.broadcast_to(quat.identity((len(trunk),)), disp.shape)
-    turn = quat.slerp(ident, disp, np.broadcast_to(blend[rows, None], (rows.size, len(trunk))))  # (R, T, 4)
-    turned = quat.mul(turn, start_local[np.ix_(rows, trunk)])
-    # into the limits (a turn carried onto another frame's trunk can leave them), the locked
-    # axes as they were: the Euler angles the solvers start from, and their rotations
-    lim = np.asarray(limits, float)[trunk]                                              # (T, 3, 2) deg
-    deg = limit_euler(turned, lim)                                                      # (R, T, 3)
-    free = lim[..., 0] < lim[..., 1]
-    deg = np.where(free, np.clip(deg, lim[..., 0], lim[..., 1]), np.degrees(start_euler[np.ix_(rows, trunk)]))
-    local = start_local.copy()
-    local[np.ix_(rows, trunk)] = quat.from_euler(deg)
-    euler = start_euler.copy()
-    euler[np.ix_(rows, trunk)] = np.radians(deg)
+    disp = np.ascontiguousarray(quat.mul(hit_local[trunk], quat.conjugate(start_local[hit, trunk])))  # (T, 4)
+    lim = np.radians(np.asarray(limits, float))
+    local, euler = start_local.copy(), start_euler.copy()
+    carry_trunk(start_local, start_euler, disp, np.ascontiguousarray(blend, float), rows.astype(np.int64),
+                np.asarray(trunk, np.int64), np.ascontiguousarray(lim[..., 0]), np.ascontiguousarray(lim[..., 1]),
+                local, euler)
     return local, euler
 
 

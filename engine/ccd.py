@@ -314,22 +314,29 @@ def _gimbal_split(e, lo, hi):
 
 
 @njit(cache=True)
+def limit_euler_one(q, lo, hi):
+    """One local rotation ``q`` (tuple) -> its (z, y, x) radians in the ZYX branch that fits
+    ``lo``/``hi`` (3,) radians better, read in the limits' own window (a range past +-180
+    reads 190, not -170): the solvers step and clamp from these numbers."""
+    e1 = to_euler_zyx(q)
+    e2 = other_branch(e1)
+    s1 = 0.0
+    s2 = 0.0
+    for c in range(3):
+        s1 += outside(e1[c], lo[c], hi[c])
+        s2 += outside(e2[c], lo[c], hi[c])
+    e = _gimbal_split(e2 if s2 < s1 - 1e-11 else e1, lo, hi)
+    return (into_range(e[0], lo[0], hi[0]), into_range(e[1], lo[1], hi[1]), into_range(e[2], lo[2], hi[2]))
+
+
+@njit(cache=True)
 def _limit_euler_nb(local, lo, hi, out):
     """local (M,J,4), lo/hi (J,3) radians -> out (M,J,3) radians, best branch."""
     for i in range(local.shape[0]):
         for j in range(local.shape[1]):
-            e1 = to_euler_zyx((local[i, j, 0], local[i, j, 1], local[i, j, 2], local[i, j, 3]))
-            e2 = other_branch(e1)
-            s1 = 0.0
-            s2 = 0.0
+            e = limit_euler_one((local[i, j, 0], local[i, j, 1], local[i, j, 2], local[i, j, 3]), lo[j], hi[j])
             for c in range(3):
-                s1 += outside(e1[c], lo[j, c], hi[j, c])
-                s2 += outside(e2[c], lo[j, c], hi[j, c])
-            e = _gimbal_split(e2 if s2 < s1 - 1e-11 else e1, lo[j], hi[j])
-            # in the limits' own window (a range past +-180 reads 190, not -170): the
-            # solvers step and clamp from these numbers
-            for c in range(3):
-                out[i, j, c] = into_range(e[c], lo[j, c], hi[j, c])
+                out[i, j, c] = e[c]
 
 
 def limit_euler(local_rotations, limits) -> np.ndarray:
