@@ -23,7 +23,7 @@ import numpy as np
 from . import quat
 from .ccd import ITERATIONS, KIND_NONE, TOLERANCE, ChainArrays, chain_arrays, limit_euler
 from .dls import DAMPING, default_stiffness
-from .carry import CARRY_REACH_DEG, carried_start, served
+from .carry import CARRY_REACH_DEG, carried_start, hit_run, served
 from .arms_nb import TORSO_WEIGHT
 from .frames_parallel import run_frames
 from .skeleton import local_translations, relative_pose
@@ -367,20 +367,25 @@ class Adapter:
         if carried is None:
             return solve(frames, start_local, start_euler), p
         # the others held near the lean they start from, so their own solves do not turn
-        # the trunk again on top of it
+        # the trunk again on top of it; the hit frame keeps its own solve
         held_rest = (rest[0][:6] + (self._reach_for(CARRY_REACH_DEG), True), rest[1])
-        out = run_frames(frames, J, (p, blend, self._shot_args, carried), chains, held_rest)
+        near = (hit_run(blend, frames, h) | (blend[frames] <= 0.0)) & (frames != h)
+        ran = run_frames(frames[near], J, (p, blend, self._shot_args, carried), chains, held_rest)
         # a frame whose bat needed the trunk past that hold, or whose right hand it kept off
         # the grip, is solved alone: the hit's lean does not help it (the leg glance 30 cm
-        # toward leg and 15 up: frame 32's chest 115 deg from the source's, alone 23)
-        again = ~served(out[0], carried[1][frames], out[6], out[7], self.trunk, self.rig.limits) & (frames != h)
-        if again.any():
-            alone = solve(frames[again], start_local, start_euler)
-            for mine, its in zip(out, alone):
-                mine[again] = its
-        at_hit = frames == h        # the hit frame keeps its own solve
+        # toward leg and 15 up: frame 32's chest 115 deg from the source's, alone 23); so is
+        # one the blend adapts again after a gap (no part of the lean into the hit)
+        kept = near.copy()
+        kept[near] = served(ran[0], carried[1][frames[near]], ran[6], ran[7], self.trunk, self.rig.limits)
+        out = tuple(np.empty((len(frames),) + a.shape[1:], a.dtype) for a in ran)
+        at_hit, alone = frames == h, ~kept & (frames != h)
+        for mine, its in zip(out, ran):
+            mine[kept] = its[kept[near]]
         for mine, its in zip(out, hit):
             mine[at_hit] = its[0]
+        if alone.any():
+            for mine, its in zip(out, solve(frames[alone], start_local, start_euler)):
+                mine[alone] = its
         return out, p
 
     def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None,

@@ -31,17 +31,28 @@ from .frames_nb import GRIP_CM, GRIP_RAD
 CARRY_REACH_DEG = 5.0  # the carried frames' trunk joints within this of their start on each axis
 
 
+def hit_run(blend: np.ndarray, frames: np.ndarray, hit: int) -> np.ndarray:
+    """``(K,)`` bool: which of ``frames`` lie in the hit's own run of blended frames (``blend
+    (F,)`` above 0 from the hit out to the first 0 either side). A frame the blend adapts
+    again after a gap (the bat back near the hit point: a synthesised aborted drive, frames
+    10-15 after its hit) is no part of the lean into the hit, and is solved alone."""
+    zero = np.flatnonzero(np.asarray(blend) <= 0.0)
+    lo = zero[zero < hit].max(initial=-1)
+    hi = zero[zero > hit].min(initial=len(blend))
+    return (frames > lo) & (frames < hi)
+
+
 def carried_start(start_local: np.ndarray, start_euler: np.ndarray, hit_local: np.ndarray, trunk: np.ndarray,
                   blend: np.ndarray, frames: np.ndarray, hit: int, limits: np.ndarray):
     """The chains' start pose with the hit frame's trunk carried (None: the hit frame left its
     trunk alone, or no frame to carry it to): local rotations ``(F, J, 4)`` and their Euler
     angles ``(F, J, 3)`` rad, equal to ``start_local``/``start_euler`` except
-    at ``frames`` with a blend, where the ``trunk`` joints (indices, root-most first) are
+    at ``frames`` in the hit's run (:func:`hit_run`), where the ``trunk`` joints (indices, root-most first) are
     turned by the hit frame's displacement (``hit_local (J, 4)``, the hit's solved local
     rotations, against ``start_local[hit]``) slerped by ``blend (F,)``. ``limits (J, 3, 2)``
     degrees pick the Euler branch (engine.ccd.limit_euler) and bound the free axes; a locked
     axis keeps the start's angle. Blend 0 leaves a frame as it was."""
-    rows = frames[(blend[frames] > 0.0) & (frames != hit)]
+    rows = frames[hit_run(blend, frames, hit) & (frames != hit)]
     if rows.size == 0 or trunk.size == 0 or np.array_equal(hit_local[trunk], start_local[hit, trunk]):
         return None
     disp = np.ascontiguousarray(quat.mul(hit_local[trunk], quat.conjugate(start_local[hit, trunk])))  # (T, 4)

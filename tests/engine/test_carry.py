@@ -148,3 +148,25 @@ def test_a_carried_lean_leaves_no_hand_off_its_grip_that_the_frame_alone_holds(s
         a = ad.adapt(ad.hit_point + np.array(o), CARRIED)
         assert a.grip_error_cm.max() < 0.5 and a.grip_error_deg.max() < 5.0, (o, a.grip_error_cm.max())
         assert a.bat_error_cm <= 0.001
+
+
+def test_the_lean_is_carried_over_the_hit_s_own_run_of_frames(shots):
+    """hit_run: the blended frames from the hit out to the first unblended one either side. The
+    square cut's blend comes back after a gap (frames 47-69, the bat near the hit point again
+    in the follow-through): those frames are solved alone, not leaned, while frames of the
+    hit's run are carried (a synthesised aborted drive leaned 99-109 deg there, 10-15 frames
+    after its hit, before this rule)."""
+    from engine.carry import hit_run
+    blend = np.array([0.0, 0.2, 0.5, 1.0, 0.4, 0.0, 0.3, 0.1])
+    frames = np.arange(8)
+    assert hit_run(blend, frames, 3).tolist() == [False, True, True, True, True, False, False, False]
+    assert hit_run(np.ones(4), np.arange(4), 0).all()
+    shot, ad = shots["square_cut"]
+    target = ad.hit_point + np.array([0.0, -30.0, 0.0])
+    on, off = ad.adapt(target, CARRIED), ad.adapt(target, ALONE)
+    run = hit_run(on.blend, np.arange(ad.num_frames), ad.hit_frame)
+    after_gap = (on.blend > 0.0) & ~run
+    assert after_gap.sum() >= 10
+    assert np.array_equal(on.local_rotations[after_gap], off.local_rotations[after_gap])
+    carried = run & (np.arange(ad.num_frames) != ad.hit_frame)
+    assert any(not np.array_equal(on.local_rotations[f], off.local_rotations[f]) for f in np.flatnonzero(carried))
