@@ -34,8 +34,8 @@ CARRY_REACH_DEG = 5.0  # the carried frames' trunk joints within this of their s
 def hit_run(blend: np.ndarray, frames: np.ndarray, hit: int) -> np.ndarray:
     """``(K,)`` bool: which of ``frames`` lie in the hit's own run of blended frames (``blend
     (F,)`` above 0 from the hit out to the first 0 either side). A frame the blend adapts
-    again after a gap (the bat back near the hit point: a synthesised aborted drive, frames
-    10-15 after its hit) is no part of the lean into the hit, and is solved alone."""
+    again after a gap (the bat back near the hit point: the square cut's follow-through) is no
+    part of the lean into the hit, and is solved alone."""
     zero = np.flatnonzero(np.asarray(blend) <= 0.0)
     lo = zero[zero < hit].max(initial=-1)
     hi = zero[zero > hit].min(initial=len(blend))

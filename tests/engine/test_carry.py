@@ -154,8 +154,8 @@ def test_the_lean_is_carried_over_the_hit_s_own_run_of_frames(shots):
     """hit_run: the blended frames from the hit out to the first unblended one either side. The
     square cut's blend comes back after a gap (frames 47-69, the bat near the hit point again
     in the follow-through): those frames are solved alone, not leaned, while frames of the
-    hit's run are carried (a synthesised aborted drive leaned 99-109 deg there, 10-15 frames
-    after its hit, before this rule)."""
+    hit's run are carried (an aborted straight drive made to meet the ball, which the app
+    never does, leaned 99-109 deg 10-15 frames after its hit before this rule)."""
     from engine.carry import hit_run
     blend = np.array([0.0, 0.2, 0.5, 1.0, 0.4, 0.0, 0.3, 0.1])
     frames = np.arange(8)
