@@ -364,28 +364,30 @@ class Adapter:
             return solve(frames, start_local, start_euler), p
         hit = solve(np.array([h], np.int64), start_local, start_euler)
         carried = carried_start(start_local, start_euler, hit[0][0], self.trunk, blend, frames, h, self.rig.limits)
-        if carried is None:
-            return solve(frames, start_local, start_euler), p
-        # the others held near the lean they start from, so their own solves do not turn
-        # the trunk again on top of it; the hit frame keeps its own solve
-        held_rest = (rest[0][:6] + (self._reach_for(CARRY_REACH_DEG), True), rest[1])
-        near = (hit_run(blend, frames, h) | (blend[frames] <= 0.0)) & (frames != h)
-        ran = run_frames(frames[near], J, (p, blend, self._shot_args, carried), chains, held_rest)
-        # a frame whose bat needed the trunk past that hold, or whose right hand it kept off
-        # the grip, is solved alone: the hit's lean does not help it (the leg glance 30 cm
-        # toward leg and 15 up: frame 32's chest 115 deg from the source's, alone 23); so is
-        # one the blend adapts again after a gap (no part of the lean into the hit)
-        kept = near.copy()
-        kept[near] = served(ran[0], carried[1][frames[near]], ran[6], ran[7], self.trunk, self.rig.limits)
-        out = tuple(np.empty((len(frames),) + a.shape[1:], a.dtype) for a in ran)
-        at_hit, alone = frames == h, ~kept & (frames != h)
-        for mine, its in zip(out, ran):
-            mine[kept] = its[kept[near]]
-        for mine, its in zip(out, hit):
-            mine[at_hit] = its[0]
+        at_hit = frames == h        # the hit frame keeps its own solve (not solved again)
+        kept = np.zeros(len(frames), bool)
+        if carried is not None:
+            # the others held near the lean they start from, so their own solves do not turn
+            # the trunk again on top of it
+            held_rest = (rest[0][:6] + (self._reach_for(CARRY_REACH_DEG), True), rest[1])
+            near = (hit_run(blend, frames, h) | (blend[frames] <= 0.0)) & ~at_hit
+            ran = run_frames(frames[near], J, (p, blend, self._shot_args, carried), chains, held_rest)
+            # a frame whose bat needed the trunk past that hold, or whose right hand it kept off
+            # the grip, is solved alone: the hit's lean does not help it (the leg glance 30 cm
+            # toward leg and 15 up: frame 32's chest 115 deg from the source's, alone 23); so is
+            # one the blend adapts again after a gap (no part of the lean into the hit)
+            kept[near] = served(ran[0], carried[1][frames[near]], ran[6], ran[7], self.trunk, self.rig.limits)
+        out = tuple(np.empty((len(frames),) + a.shape[1:], a.dtype) for a in hit)
+
+        def put(mask, outputs, rows):
+            for mine, its in zip(out, outputs):
+                mine[mask] = its[rows]
+        put(at_hit, hit, slice(0, int(at_hit.any())))
+        if carried is not None:
+            put(kept, ran, kept[near])
+        alone = ~kept & ~at_hit
         if alone.any():
-            for mine, its in zip(out, solve(frames[alone], start_local, start_euler)):
-                mine[alone] = its
+            put(alone, solve(frames[alone], start_local, start_euler), slice(None))
         return out, p
 
     def adapt(self, desired_hit_point, settings: AdaptSettings | None = None, start=None,

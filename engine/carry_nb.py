@@ -12,7 +12,7 @@ from .quat_nb import axis_angle, from_euler_zyx, q_at, qmul
 
 
 @njit(cache=True)
-def _half_turn(q):
+def _axis_and_angle(q):
     """A rotation (tuple) as a unit axis and an angle in [0, pi] (the shorter arc)."""
     sg = 1.0 if q[0] >= 0.0 else -1.0
     x, y, z = sg * q[1], sg * q[2], sg * q[3]
@@ -37,7 +37,7 @@ def carry_trunk(start_local, start_euler, disp, blend, rows, trunk, lo, hi, loca
     and ``euler_out (F, J, 3)`` radians (the other entries left as they are)."""
     for k in range(trunk.shape[0]):
         j = trunk[k]
-        axis, angle = _half_turn(q_at(disp, k))
+        axis, angle = _axis_and_angle(q_at(disp, k))
         for r in rows:
             q = qmul(axis_angle(axis, blend[r] * angle), q_at(start_local[r], j))
             z, y, x = limit_euler_one(q, lo[j], hi[j])

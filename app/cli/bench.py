@@ -84,29 +84,41 @@ def _slowest_shot(rig, settings, reps: int, rng) -> tuple:
     return worst
 
 
+def _paired(ways: dict, call, reps: int, setup=None) -> tuple[dict, float]:
+    """``call(way, k)`` for each of two ``ways`` (name -> way) call by call in turn, ``setup(way)``
+    untimed before each: the medians (ms) by name and the median of the paired ratios, the
+    first way's over the second's (alternating cancels most of a shared machine's drift)."""
+    times = {name: [] for name in ways}
+    for k in range(reps + 3):
+        for name, way in ways.items():
+            if setup is not None:
+                setup(way)
+            t = time.perf_counter()
+            call(way, k)
+            if k >= 3:      # the first calls warm up
+                times[name].append(time.perf_counter() - t)
+    first, second = (np.asarray(v) for v in times.values())
+    medians = {name: _stats(v, 1e3)["median"] for name, v in times.items()}
+    return medians, round(float(np.median(first / second)), 3)
+
+
 def _threads_vs_one(adapter, targets, settings, reps: int) -> dict:
     """A whole shot on engine.frames_parallel's threads and on one (``HITPOINT_THREADS=1``),
     call by call in turn: the two medians (ms), the threads and the median of the paired ratios."""
     from engine.frames_parallel import worker_count
     threads = worker_count()
     saved = os.environ.get("HITPOINT_THREADS")
-    times = {"threads": [], "one": []}
     try:
-        for k in range(reps + 3):
-            for key, n in (("threads", threads), ("one", 1)):
-                os.environ["HITPOINT_THREADS"] = str(n)
-                t = time.perf_counter()
-                adapter.adapt(targets[k % len(targets)], settings)
-                if k >= 3:      # the first calls warm up
-                    times[key].append(time.perf_counter() - t)
+        medians, ratio = _paired({"threads": threads, "one": 1},
+                                 lambda n, k: adapter.adapt(targets[k % len(targets)], settings), reps,
+                                 setup=lambda n: os.environ.__setitem__("HITPOINT_THREADS", str(n)))
     finally:
         if saved is None:
             os.environ.pop("HITPOINT_THREADS", None)
         else:
             os.environ["HITPOINT_THREADS"] = saved
-    ratio = np.median(np.asarray(times["threads"]) / np.asarray(times["one"]))
-    return {"threads": threads, "median_ms": _stats(times["threads"], 1e3)["median"],
-            "one_thread_median_ms": _stats(times["one"], 1e3)["median"], "paired_ratio": round(float(ratio), 3)}
+    return {"threads": threads, "median_ms": medians["threads"], "one_thread_median_ms": medians["one"],
+            "paired_ratio": ratio}
 
 
 def _carried_vs_alone(adapter, targets, settings, reps: int) -> dict:
@@ -114,17 +126,10 @@ def _carried_vs_alone(adapter, targets, settings, reps: int) -> dict:
     frames it does not serve again) and with every frame alone, call by call in turn, to
     the same targets: the two medians (ms) and the median of the paired ratios."""
     from dataclasses import replace
-    ways = {"carried": replace(settings, carry_lean=True), "alone": replace(settings, carry_lean=False)}
-    times = {k: [] for k in ways}
-    for k in range(reps + 3):
-        for key, s in ways.items():
-            t = time.perf_counter()
-            adapter.adapt(targets[k % len(targets)], s)
-            if k >= 3:      # the first calls warm up
-                times[key].append(time.perf_counter() - t)
-    ratio = np.median(np.asarray(times["carried"]) / np.asarray(times["alone"]))
-    return {"carried_median_ms": _stats(times["carried"], 1e3)["median"],
-            "alone_median_ms": _stats(times["alone"], 1e3)["median"], "paired_ratio": round(float(ratio), 3)}
+    medians, ratio = _paired({"carried": replace(settings, carry_lean=True),
+                              "alone": replace(settings, carry_lean=False)},
+                             lambda s, k: adapter.adapt(targets[k % len(targets)], s), reps)
+    return {"carried_median_ms": medians["carried"], "alone_median_ms": medians["alone"], "paired_ratio": ratio}
 
 
 def run_bench(reps: int = 200) -> dict:
