@@ -60,7 +60,11 @@ class Rig:
 
 def load_rig(path: str | Path) -> Rig:
     """Load a rig JSON file; unknown parents or bad limits raise ``ValueError``."""
-    data = json.loads(Path(path).read_text())
+    return rig_from_dict(json.loads(Path(path).read_text()))
+
+
+def rig_from_dict(data: dict) -> Rig:
+    """A rig from the parsed contents of a rig JSON file (``load_rig``)."""
     joints = data["joints"]
     names = [j["name"] for j in joints]
     parents, offsets = [], []

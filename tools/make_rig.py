@@ -68,23 +68,24 @@ Not yet anatomical (issue 14, see the shots' report):
   as ISB does), and every solver holds it after each step (engine/humerus_nb.py); the Euler
   box stays the joints' own reach.
 Both hands hold the bat upside down (measured 2026-12-04): the top hand's toe is beyond the
-little finger (``axis`` -Z), and the bottom hand's thumb points up the handle
-(tools/shots_ik.right_in_bat). Branch ``grip`` holds it the right way up: the top hand's toe
-20 deg from the fingers toward the thumb, the face 60 deg round the handle from the back of
-the hand (a sweep over the library's hit windows); the bottom hand's palm behind the face,
-its toe 20 deg from the fingers toward the thumb, turned 60 deg about the handle; Hand y at
-AAOS; the stance and rest re-keyed (the bat leaning back 20 deg), the pull's, glance's and
-sweep's bat axes at the hit turned 20-40 deg about their face normals (face and direction
-kept). Every shot then hits with the face inside its region (but the pull's speed peaks 13
-frames late and the defences reach 4.5-4.7 m/s), and the arms' authoring is not re-tuned:
-elbow pops 45 -> 97, horizontal 40 -> 70, axial 25 -> 83 arm-frames, and the adapted face
-at the offset grid's corners turns up to 14 deg (4 allowed).
+little finger (``axis`` -Z), and the bottom hand's thumb points up the handle. The grips are
+data in tools/grips: ``library`` (this one, the bundled rig) and ``anatomical`` (the toe beyond
+thumb and forefinger, Hand y at AAOS; ``grip_rig``). The lost branch ``grip`` held it that
+way with re-keyed shots (the stance's bat leaning back 20 deg; the pull's, glance's and sweep's
+bat axes at the hit turned 20-40 deg about their face normals): every shot then hit with the
+face inside its region, but the arms' authoring was not re-tuned (elbow pops 45 -> 97,
+horizontal 40 -> 70, axial 25 -> 83 arm-frames; the adapted face at the offset grid's corners
+turned up to 14 deg, 4 allowed). tools/grip_feasibility counts the frames to re-key.
 """
 import json
 from functools import partial
 from pathlib import Path
 
 import numpy as np
+
+from engine.rig import Rig, rig_from_dict
+
+from .grips import GRIPS, top_hand
 
 BALL_DIAMETER = 7.2
 BAT = {
@@ -93,10 +94,8 @@ BAT = {
     # grip point of the left (top) hand, in LeftHand's frame: the palm centre
     "left_grip": [8.0, -2.0, 0.0],
     "grip_to_top": 5.0,               # handle top lies 5 cm beyond the left grip
-    # the top hand's grip: the Bat joint (bat_joint_offset) and the authoring tools
-    # (tools/shots_ik.grip_frame) follow these two, so a grip is changed here alone
-    "axis": [0.0, 0.0, -1.0],         # handle -> toe, in LeftHand's frame
-    "face_normal": [0.0, 1.0, 0.0],   # out of the face, in LeftHand's frame
+    # the grip (tools/grips) adds "axis" (handle -> toe) and "face_normal", in LeftHand's
+    # frame: the Bat joint (bat_joint_offset) and the authoring (tools/shots_ik) follow them
     "right_grip_below_left": 11.0,    # cm further down the handle
 }
 
@@ -121,8 +120,9 @@ def mirrored(s, z=None, y=None, x=None) -> dict:
     return out
 
 
-def side(prefix, s):
-    """Arm joints; s = +1 for left (+X), -1 for right."""
+def side(prefix, s, hand_y=(-75, 55)):
+    """Arm joints; s = +1 for left (+X), -1 for right; ``hand_y``: the left wrist's deviation
+    range (the grip's, tools/grips)."""
     lim = partial(mirrored, s)
     L = prefix
     return [
@@ -131,7 +131,7 @@ def side(prefix, s):
         joint(f"{L}ArmRoll", f"{L}Arm", [14.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 90])),
         joint(f"{L}ForeArm", f"{L}ArmRoll", [14.0 * s, 0.0, 0.0], "y", lim(None, [-150, 0], None)),
         joint(f"{L}ForeArmRoll", f"{L}ForeArm", [13.0 * s, 0.0, 0.0], "x", lim(None, None, [-90, 85])),
-        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-80, 70], [-75, 55], None),
+        joint(f"{L}Hand", f"{L}ForeArmRoll", [13.0 * s, 0.0, 0.0], "zy", lim([-80, 70], list(hand_y), None),
               end=[9.0 * s, 0.0, 0.0]),
     ]
 
@@ -157,7 +157,11 @@ def bat_joint_offset(b: dict) -> list:
     return (np.asarray(b["left_grip"], float) + along * axis + out * normal).tolist()
 
 
-def rig():
+def rig(grip: str = "library"):
+    """The rig as a dict (``assets/rig.json``), its bat held with ``grip`` (tools/grips.GRIPS)."""
+    g = GRIPS[grip]
+    axis, normal = top_hand(g)
+    bat = dict(BAT, axis=axis, face_normal=normal, grip=grip)
     spine = {"z": [-45, 45], "y": [-50, 50], "x": [-40, 60]}
     joints = [
         joint("Hips", None, [0.0, 97.0, 0.0], "zyx", {"z": [-180, 180], "y": [-180, 180], "x": [-180, 180]}),
@@ -168,8 +172,8 @@ def rig():
         joint("Head", "Neck", [0.0, 10.0, 2.0], "zyx", {"z": [-40, 40], "y": [-70, 70], "x": [-40, 50]},
               end=[0.0, 19.0, 0.0]),
     ]
-    joints += side("Left", 1) + side("Right", -1) + leg("Left", 1) + leg("Right", -1)
-    joints.append(joint("Bat", "LeftHand", bat_joint_offset(BAT), ""))
+    joints += side("Left", 1, g["hand_y"]) + side("Right", -1, g["hand_y"]) + leg("Left", 1) + leg("Right", -1)
+    joints.append(joint("Bat", "LeftHand", bat_joint_offset(bat), ""))
     return {
         "units": "cm",
         "euler_order": "ZYX",
@@ -186,9 +190,14 @@ def rig():
         # the humerus's axial rotation as ISB reads it (engine.humerus_nb), AAOS's range
         "humerus": {"chest": "Spine2", "left": "LeftArmRoll", "right": "RightArmRoll",
                     "internal": 70, "external": 90},
-        "bat": BAT,
+        "bat": bat,
         "ball": {"diameter": BALL_DIAMETER},
     }
+
+
+def grip_rig(grip: str) -> Rig:
+    """The bundled rig with its bat held with ``grip`` (tools/grips.GRIPS)."""
+    return rig_from_dict(json.loads(json.dumps(rig(grip))))
 
 
 if __name__ == "__main__":

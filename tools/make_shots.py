@@ -27,6 +27,9 @@ from engine.rig import assets_dir, default_rig
 from engine.skeleton import Clip, clip_fk
 
 from . import shots_check as chk
+from .grips import GRIPS
+from .make_rig import grip_rig
+from .make_rig import rig as rig_dict
 from .shots_defs import REST, SHOTS, STANCE
 from .shots_ik import PoseSolver, fit_torso, shoulder_positions
 from .shots_keys import FPS, targets, tracks
@@ -96,6 +99,17 @@ def build(name: str, rig=None, noise: bool = True, keyed=None):
     """(skeleton, clip, hit_frame, description, info) for one shot; ``keyed``: its
     (keys, description) in place of ``SHOTS[name]()``."""
     rig = rig or default_rig()
+    solver, T, n_pre, description, info = planned(name, rig, noise, keyed)
+    root, local, solved = solver.solve(T)
+    info.update(solved)
+    clip, clamped = into_limits(rig, Clip(root, local, FPS))
+    clamped = max(clamped, info["top_arm_clamped_deg"])       # the solver clamps the top arm itself
+    return rig.skeleton, clip, n_pre, description, {"clamped_deg": clamped, **info}
+
+
+def planned(name: str, rig, noise: bool = True, keyed=None):
+    """What ``build`` hands the pose solver: (the PoseSolver, its world targets ``T`` with
+    the bat's ``roll_weight``, the hit frame, the description, info: ``tracks``, ``unfold_cm``)."""
     keys, description = keyed or SHOTS[name]()
     t0, t1 = keys[0][0], keys[-1][0]
     n_pre, n_post = int(round(-t0 * FPS)), int(round(t1 * FPS))
@@ -120,17 +134,13 @@ def build(name: str, rig=None, noise: bool = True, keyed=None):
     for _ in range(8):
         tr["grip"] = tr["grip"] + unfold(solver, T, times)
         T = targets(tr)
-    info = {"unfold_cm": float(np.linalg.norm(tr["grip"] - keyed_grip, axis=-1).max())}
+    info = {"tracks": tr, "unfold_cm": float(np.linalg.norm(tr["grip"] - keyed_grip, axis=-1).max())}
     # the face may turn about the bat's axis except near impact and at the
     # shared first and last frames
     near_hit = np.exp(-0.5 * (times / 0.06) ** 2)
     T["roll_weight"] = 0.05 + 200.0 * near_hit + 200.0 * (1.0 - envelope(len(times), 6))
     T["roll_weight"][n_pre] = np.inf          # the face meets the ball as keyed
-    root, local, solved = solver.solve(T)
-    info.update(solved)
-    clip, clamped = into_limits(rig, Clip(root, local, FPS))
-    clamped = max(clamped, info["top_arm_clamped_deg"])       # the solver clamps the top arm itself
-    return rig.skeleton, clip, n_pre, description, {"tracks": tr, "clamped_deg": clamped, **info}
+    return solver, T, n_pre, description, info
 
 
 def into_limits(rig, clip: Clip) -> tuple[Clip, float]:
@@ -191,12 +201,20 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="diagnostics only, write nothing")
     ap.add_argument("--only", help="build one shot")
-    ap.add_argument("--out", default=str(assets_dir() / "shots"))
+    ap.add_argument("--out", help="where the library goes (default: the bundled one)")
+    ap.add_argument("--grip", choices=sorted(GRIPS), help="hold the bat with this grip (tools/grips); "
+                    "the rig goes into --out beside the shots (default: the bundled rig's)")
     a = ap.parse_args(argv)
     if a.only and a.only not in SHOTS:
         ap.error(f"unknown shot {a.only!r} (known: {', '.join(SHOTS)})")
     rig = default_rig()
-    out = Path(a.out)
+    if a.grip and a.grip != rig.bat.get("grip", "library"):
+        if not a.out:
+            ap.error(f"--grip {a.grip} is not the bundled rig's grip: give --out")
+        rig = grip_rig(a.grip)
+        Path(a.out).mkdir(parents=True, exist_ok=True)
+        bvh.atomic_write_text(Path(a.out) / "rig.json", json.dumps(rig_dict(a.grip), indent=1) + "\n")
+    out = Path(a.out or assets_dir() / "shots")
     out.mkdir(parents=True, exist_ok=True)
     names = [a.only] if a.only else list(SHOTS)
     manifest = []

@@ -144,14 +144,20 @@ class ArmSolver:
     # pops fell too (93 -> 81); at 10, 55, but 44 pops over 20 cm and 29 folded arms
     AXIAL_DEG = 14.0
 
-    def cost(self, ang, pre, s, pref, body=None):
+    def excess(self, ang, pre):
+        """Degrees past the rig's limits, summed over the arm's joints, of ``angles``' answers
+        ``(..., K)`` (the twist shared evenly by Arm and ArmRoll, as ``solve`` sets it)."""
         lim = self.rig.limits
         ix = self.ix
         e, h = ang["upper"], ang["hand"]
         over = lambda v, j, c: outside(v, lim[j, c, 0], lim[j, c, 1])
-        viol = (over(e[..., 0], ix[pre + "Arm"], 0) + over(e[..., 1], ix[pre + "Arm"], 1)
+        return (over(e[..., 0], ix[pre + "Arm"], 0) + over(e[..., 1], ix[pre + "Arm"], 1)
                 + over(e[..., 2] / 2, ix[pre + "Arm"], 2) + over(h[..., 0], ix[pre + "ForeArmRoll"], 2)
                 + over(h[..., 1], ix[pre + "Hand"], 0) + over(h[..., 2], ix[pre + "Hand"], 1))
+
+    def cost(self, ang, pre, s, pref, body=None):
+        e, h = ang["upper"], ang["hand"]
+        viol = self.excess(ang, pre)
         comfort = 0.0
         if body is not None:
             # an elbow closer to the spine than TRUNK_CM touches the chest or belly; an upper

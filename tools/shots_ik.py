@@ -13,6 +13,7 @@ import numpy as np
 from engine import quat
 from engine.skeleton import forward_kinematics
 
+from .grips import GRIPS, right_in_bat
 from .shots_arms import ArmSolver
 from .shots_check import clamp_into_limits
 from .shots_grips import BottomHand
@@ -25,8 +26,6 @@ from .shots_roll import choose_roll
 # keys give the bat's pose in the world (shots_keys.bat_frame); the rig's ``bat`` says how the
 # top hand holds it (``axis``, ``face_normal`` in LeftHand's frame), and nothing else here
 # assumes a grip.
-RIGHT_GRIP_EXT = -40.0     # deg, see PoseSolver.__init__
-RIGHT_GRIP_DEV = 60.0
 
 
 def grip_frame(rig) -> np.ndarray:
@@ -63,12 +62,8 @@ class PoseSolver:
         self.right_below = float(bat["right_grip_below_left"])
         # right palm centre in RightHand's frame: the mirror of the left grip
         self.right_grip = self.left_grip * np.array([-1.0, 1.0, 1.0])
-        # the right hand holds the handle palm-forward: its frame is the bat's
-        # turned 180 degrees about the handle, then tilted so that the handle
-        # lies diagonally across the palm and fingers as in a real grip (wrist
-        # extended ~40, deviated ~60 toward the toe from square): the bottom
-        # forearm points more along the face normal than the top one
-        self.right_in_bat = rot_axis(2, 180.0) @ rot_axis(1, -RIGHT_GRIP_DEV) @ rot_axis(2, -RIGHT_GRIP_EXT)
+        # how the bottom hand holds the handle: the rig's grip (tools/grips)
+        self.right_in_bat = right_in_bat(GRIPS[bat.get("grip", "library")])
         self.arms = ArmSolver(rig)
         self.bottom_hand = BottomHand(self.right_in_bat, self.right_grip)
 
@@ -104,36 +99,9 @@ class PoseSolver:
         {l,r}_ankle, {l,r}_foot_rot, {l,r}_toe_bend (deg), {l,r}_knee_dir,
         grip, bat_rot (the bat's frame), wrist_pref (deg, radial deviation preferred), clavicle_gain.
         """
-        ix = self.ix
-        F = T["hips_pos"].shape[0]
-        J = self.sk.num_joints
-        L = np.broadcast_to(np.eye(3), (F, J, 3, 3)).copy()
-        L[:, 0] = T["hips_rot"]
-        spine = split_rotation(rel(T["hips_rot"], T["chest_rot"]), 3)
-        for n in ("Spine", "Spine1", "Spine2"):
-            L[:, ix[n]] = spine
-        head_rot = T.get("head_rot")
-        if head_rot is None:
-            # eyes level and on the ball: look from roughly the eyes at T["look"]
-            _, g0 = self.fk(T["hips_pos"], L)
-            eye = g0[:, ix["Neck"]] + T["chest_rot"] @ np.array([0.0, 18.0, 9.0])
-            head_rot = look_rotation(eye, T["look"])
-            if "head_tilt" in T:
-                head_rot = head_rot @ rot_axis(2, T["head_tilt"])
-        neck = split_rotation(rel(T["chest_rot"], head_rot), 2)
-        L[:, ix["Neck"]] = neck
-        L[:, ix["Head"]] = neck
-        g_rot, g_pos = self.fk(T["hips_pos"], L)
-        info = {}
-        # legs
-        for side, pre in (("l", "Left"), ("r", "Right")):
-            self._leg(L, g_rot, g_pos, T, side, pre)
-        # clavicles lean a little toward their hand, then the arms
+        L, g_rot, g_pos = self.body_pose(T)
         l_wrist, l_rot, r_wrist, r_rot = self.hand_targets(T["grip"], T["bat_rot"])
-        gain = T.get("clavicle_gain", np.full(F, 0.5))
-        for pre, wrist, s in (("Left", l_wrist, 1.0), ("Right", r_wrist, -1.0)):
-            self._clavicle(L, g_rot, g_pos, pre, wrist, s, gain)
-        g_rot, g_pos = self.fk(T["hips_pos"], L)
+        info = {}
         pref = T["wrist_pref"]
         if "roll_weight" in T:
             # turn the bat about its own axis where the stroke leaves the face
@@ -154,6 +122,41 @@ class PoseSolver:
                                                     body, (costs, charges))
         info["right_grip_turn"], info["right_grip_slide"] = turns[grip], slides[grip]
         return T["hips_pos"], quat.make_continuous(to_q(L)), info
+
+    def body_pose(self, T: dict):
+        """Everything but the arms, from the targets ``T`` (``solve``'s): local rotations
+        ``(F, J, 3, 3)`` of the trunk, head, legs and clavicles (the arms at rest), and their
+        global rotations and positions."""
+        ix = self.ix
+        F = T["hips_pos"].shape[0]
+        J = self.sk.num_joints
+        L = np.broadcast_to(np.eye(3), (F, J, 3, 3)).copy()
+        L[:, 0] = T["hips_rot"]
+        spine = split_rotation(rel(T["hips_rot"], T["chest_rot"]), 3)
+        for n in ("Spine", "Spine1", "Spine2"):
+            L[:, ix[n]] = spine
+        head_rot = T.get("head_rot")
+        if head_rot is None:
+            # eyes level and on the ball: look from roughly the eyes at T["look"]
+            _, g0 = self.fk(T["hips_pos"], L)
+            eye = g0[:, ix["Neck"]] + T["chest_rot"] @ np.array([0.0, 18.0, 9.0])
+            head_rot = look_rotation(eye, T["look"])
+            if "head_tilt" in T:
+                head_rot = head_rot @ rot_axis(2, T["head_tilt"])
+        neck = split_rotation(rel(T["chest_rot"], head_rot), 2)
+        L[:, ix["Neck"]] = neck
+        L[:, ix["Head"]] = neck
+        g_rot, g_pos = self.fk(T["hips_pos"], L)
+        # legs
+        for side, pre in (("l", "Left"), ("r", "Right")):
+            self._leg(L, g_rot, g_pos, T, side, pre)
+        # clavicles lean a little toward their hand, then the arms
+        l_wrist, l_rot, r_wrist, r_rot = self.hand_targets(T["grip"], T["bat_rot"])
+        gain = T.get("clavicle_gain", np.full(F, 0.5))
+        for pre, wrist, s in (("Left", l_wrist, 1.0), ("Right", r_wrist, -1.0)):
+            self._clavicle(L, g_rot, g_pos, pre, wrist, s, gain)
+        g_rot, g_pos = self.fk(T["hips_pos"], L)
+        return L, g_rot, g_pos
 
     def _clamped_top_arm(self, L, root_pos):
         """Clamp the top (left) arm's joints in ``L`` into the rig's limits, in place, and return

@@ -42,8 +42,9 @@ ANATOMY = [
 ]
 # Still wider than documented, with what the bundled shots ask for (see tools/make_rig.py):
 # the rig's grips hold the bat upside down (the top hand's toe beyond the little finger), so
-# the bat's hang needs radial deviation; the right-way-up grips, with the wrists at AAOS, are
-# on branch `grip` and not yet through the library's tests.
+# the bat's hang needs radial deviation. tools/grips' anatomical grip holds it the right way up
+# with the wrists at AAOS (test_the_anatomical_grips_rig_is_within_documented_ranges); the
+# shots' keys are not yet re-authored for it (python -m tools.grip_feasibility).
 KNOWN_WIDER = {"wrist radial deviation": ("LeftHand", "y", -1), "wrist ulnar deviation": ("LeftHand", "y", +1)}
 
 
@@ -70,6 +71,14 @@ def test_hip_limits_are_the_documented_ranges(rig, motion, documented, source, r
 def test_arm_limits_within_documented_ranges(rig, motion, documented, source, read):
     if motion in KNOWN_WIDER:
         pytest.xfail(f"{motion}: rig {read(rig):.0f} vs {documented:.0f} ({source}), kept for the shots")
+    assert read(rig) <= documented + TOL, f"{motion}: rig allows {read(rig):.0f}, {source} documents {documented:.0f}"
+
+
+@pytest.mark.parametrize("motion,documented,source,read", ANATOMY, ids=[a[0] for a in ANATOMY])
+def test_the_anatomical_grips_rig_is_within_documented_ranges(motion, documented, source, read):
+    """The rig built for tools/grips' anatomical grip needs no row kept wider."""
+    from tools.make_rig import grip_rig
+    rig = grip_rig("anatomical")
     assert read(rig) <= documented + TOL, f"{motion}: rig allows {read(rig):.0f}, {source} documents {documented:.0f}"
 
 
