@@ -22,8 +22,69 @@ from .shots_maths import rot_axis, unit
 GRIPS = {
     "library": {"top_toe_deg": -90.0, "top_face_deg": 0.0, "right": "library", "hand_y": [-75, 55]},
     "anatomical": {"top_toe_deg": 20.0, "top_face_deg": -60.0,
-                   "right": {"toe_deg": 20.0, "face_deg": -90.0}, "hand_y": [-20, 30]},
+                   "right": {"toe_deg": 20.0, "face_deg": -90.0}, "hand_y": [-20, 30],
+                   # the shared stance and rest re-keyed for it (tools/shots_defs), where the
+                   # arms' comfort (tools/shots_arms.ArmSolver.cost, the shoulder's ranges
+                   # included) is least at the keyed roll, so the authoring's roll pass leaves the
+                   # bat still in them, and both wrists within make_shots.shared_reach: in the
+                   # stance the bat leans 10 deg more toward the batsman, its face turned 75 deg
+                   # toward him; at rest it leans 10 deg toward the off side, its face turned 45 deg
+                   # to the off side. The top wrist prefers no deviation (the library's 50 and 30
+                   # deg radial, past AAOS's 20).
+                   "stance": {"bat_d": [-0.2215, -0.9701, -0.0994], "bat_n": [0.8217, -0.2406, 0.5166],
+                              "wrist_pref": 0.0},
+                   "rest": {"bat_d": [0.1979, -0.9753, -0.0984], "bat_n": [-0.8524, -0.2208, 0.4741],
+                            "wrist_pref": 0.0},
+                   # the shots' bat keys turned where no elbow held them (tools/grip_feasibility;
+                   # a greedy search, 20 and 40 deg a step: reshape); -0.11..0.11 is the swing
+                   "shots": {
+                       "forward_defence": [(-0.161, -0.159, "face", 40)],
+                       "back_foot_defence": [(-0.11, 0.11, "lean", -40), (-0.581, -0.579, "face", 40)],
+                       "straight_drive": [(-0.361, -0.359, "lean", -20)],
+                       "cover_drive": [(0.579, 0.581, "lean", 40), (0.419, 0.421, "lean", -80),
+                                       (-0.361, -0.359, "lean", -20), (-0.11, 0.11, "lean", -20)],
+                       "square_cut": [(-0.11, 0.11, "lean", -20)],
+                       "pull": [(-0.11, 0.11, "lean", -40), (-0.581, -0.579, "face", 40),
+                                (0.269, 0.271, "face", -40), (0.499, 0.501, "face", 40),
+                                (0.399, 0.401, "lean", -40)],
+                       "leg_glance": [(-0.11, 0.11, "lean", -40), (0.119, 0.121, "face", 40),
+                                      (0.119, 0.121, "lean", -20)],
+                       "sweep": [(-0.11, 0.11, "lean", -20)],
+                   }},
 }
+
+
+def reshape(name: str, keys: list, grip: dict) -> list:
+    """Shot ``name``'s keys with the grip's edits (its ``shots[name]``: ``(t_from, t_to, what,
+    deg)`` each) made to the bat keys that hold both an axis and a face between ``t_from`` and
+    ``t_to`` (s from the hit): ``"lean"`` turns the bat's axis about its face normal (the face,
+    and so the ball's direction, kept), ``"face"`` turns the face about the axis."""
+    edits = grip.get("shots", {}).get(name, [])
+    out = []
+    for t, k in keys:
+        for t0, t1, what, deg in edits:
+            if t0 <= t <= t1 and "bat_d" in k and "bat_n" in k:
+                d, n = np.asarray(k["bat_d"], float), unit(np.asarray(k["bat_n"], float))
+                n = unit(n - d * (n @ d))
+                k = {**k, "bat_d": _about(n, d, deg)} if what == "lean" else {**k, "bat_n": _about(d, n, deg)}
+        out.append((t, k))
+    return out
+
+
+def regrip(keys: list, grip: dict, stance: dict, rest: dict) -> list:
+    """A shot's keys ``[(t, {channel: value})]`` with the shared ``stance``'s and ``rest``'s
+    keys given the grip's values (its ``stance`` and ``rest``). A key is the stance's (or the
+    rest's) when every channel it holds has that pose's value: the holds at either end, and the
+    bat's stance key before the backlift (the two poses share some values, the face's among them,
+    so a channel alone does not tell them apart)."""
+    same = lambda a, b: np.array_equal(np.asarray(a, float), np.asarray(b, float))
+
+    def swap(k):
+        for shared, new in ((stance, grip.get("stance", {})), (rest, grip.get("rest", {}))):
+            if all(c in shared and same(v, shared[c]) for c, v in k.items()):
+                return {**k, **{c: np.asarray(v, float) for c, v in new.items() if c in k}}
+        return k
+    return [(t, swap(k)) for t, k in keys]
 
 
 def _about(axis: np.ndarray, v: np.ndarray, deg: float) -> np.ndarray:

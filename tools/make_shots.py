@@ -27,7 +27,7 @@ from engine.rig import assets_dir, default_rig
 from engine.skeleton import Clip, clip_fk
 
 from . import shots_check as chk
-from .grips import GRIPS
+from .grips import GRIPS, regrip, reshape
 from .make_rig import grip_rig
 from .make_rig import rig as rig_dict
 from .shots_defs import REST, SHOTS, STANCE
@@ -83,7 +83,9 @@ def shared_reach(solver, d_min: float = 27.0, d_max: float = 48.0) -> None:
     key out of that reach is corrected on every frame but its own and the
     bat jumps between them (the stance's left wrist at 53.5 cm of 54 lifted
     the bat 26 cm over frames 0-3 of every shot)."""
+    grip = GRIPS[solver.rig.bat.get("grip", "library")]
     for pose_name, pose in (("STANCE", STANCE), ("REST", REST)):
+        pose = regrip([(0.0, pose)], grip, STANCE, REST)[0][1]
         tr = tracks([(0.0, dict(pose)), (1.0, dict(pose))], np.zeros(1), solver)
         T = targets(tr)
         sh = shoulder_positions(solver, T["hips_pos"], T["hips_rot"], T["chest_rot"])[0]
@@ -111,6 +113,8 @@ def planned(name: str, rig, noise: bool = True, keyed=None):
     """What ``build`` hands the pose solver: (the PoseSolver, its world targets ``T`` with
     the bat's ``roll_weight``, the hit frame, the description, info: ``tracks``, ``unfold_cm``)."""
     keys, description = keyed or SHOTS[name]()
+    grip = GRIPS[rig.bat.get("grip", "library")]
+    keys = reshape(name, regrip(keys, grip, STANCE, REST), grip)
     t0, t1 = keys[0][0], keys[-1][0]
     n_pre, n_post = int(round(-t0 * FPS)), int(round(t1 * FPS))
     times = np.arange(-n_pre, n_post + 1) / FPS
@@ -218,9 +222,12 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     names = [a.only] if a.only else list(SHOTS)
     manifest = []
+    totals = dict.fromkeys(chk.ARM_FRAMES, 0)
     for name in names:
         skel, clip, hit, desc, info = build(name, rig)
         report(rig, name, clip, hit, info["clamped_deg"])
+        for kind, n in chk.arm_figures(rig, *clip_fk(rig.skeleton, clip)).items():
+            totals[kind] = totals.get(kind, 0) + n
         if not a.check:
             # engine.bvh.write, but with the Euler branch the rig's DOFs mean
             # (an elbow flexed past 90 degrees stays a pure y rotation)
@@ -230,6 +237,8 @@ def main(argv=None):
     if not a.check and not a.only:
         bvh.atomic_write_text(out / "library.json", json.dumps(manifest, indent=1) + "\n")
         print(f"wrote {len(manifest)} shots to {out}")
+    # what tests/assets/test_shot_smoothness bounds over the whole library
+    print("arm-frames: " + ", ".join(f"{k} {totals[k]}" for k in chk.ARM_FRAMES))
 
 
 if __name__ == "__main__":

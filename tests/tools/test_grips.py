@@ -89,3 +89,56 @@ def test_feasibility_finds_the_elbow_of_an_arm_that_holds_the_bat():
     narrow.limits[j, 1] = (-20.0, 30.0)
     least = least_excess(*held_bat(narrow, shot))["Left"]
     assert (least > OVER_DEG).sum() > len(least) // 2, np.round(least, 1)
+
+
+def test_regrip_gives_the_grips_values_to_the_stance_and_rest_keys_alone():
+    """The holds at either end and the bat's stance key before the backlift take the grip's
+    values; every other key, and every channel the grip does not re-key, is left as it was
+    (the stance and rest share their face, so a channel alone cannot tell them apart)."""
+    from tools.grips import regrip
+    from tools.shots_defs import REST, SHOTS, STANCE
+    grip = GRIPS["anatomical"]
+    same = lambda a, b: np.array_equal(np.asarray(a, float), np.asarray(b, float))
+    for name in SHOTS:
+        keys, _ = SHOTS[name]()
+        found = []
+        for (t, before), (t2, after) in zip(keys, regrip(keys, grip, STANCE, REST)):
+            shared = next((p for p in (STANCE, REST) if all(c in p and same(v, p[c]) for c, v in before.items())), None)
+            new = {} if shared is None else grip["stance" if shared is STANCE else "rest"]
+            found.append("stance" if shared is STANCE else "rest" if shared is REST else "")
+            assert t == t2 and before.keys() == after.keys()
+            for c in before:
+                assert same(after[c], new.get(c, before[c])), (name, t, c)
+        # the two holds at either end, and the bat's stance key before the backlift (the feet's
+        # keys that hold the stance's too have no channel the grip re-keys)
+        assert found[:2] == ["stance"] * 2 and found[-2:] == ["rest"] * 2, (name, found)
+        assert any(f == "stance" and "bat_d" in k for f, (t, k) in zip(found[2:], keys[2:])), name
+
+
+def test_regrip_leaves_the_library_grips_keys_alone():
+    from tools.grips import regrip, reshape
+    from tools.shots_defs import REST, SHOTS, STANCE
+    for name in SHOTS:
+        keys, _ = SHOTS[name]()
+        assert reshape(name, regrip(keys, GRIPS["library"], STANCE, REST), GRIPS["library"]) == keys
+
+
+@pytest.mark.parametrize("what", ["lean", "face"])
+def test_reshape_turns_the_bat_about_its_face_or_its_axis(what):
+    """``lean`` turns the axis about the face normal (the face, so the ball's direction, kept);
+    ``face`` turns the face about the axis (the axis kept); keys outside the window, and keys
+    without both, are untouched."""
+    from tools.grips import reshape
+    d, n = np.array([0.0, -0.8, 0.6]), np.array([0.0, 0.6, 0.8])
+    keys = [(-0.2, {"bat_d": d, "bat_n": n}), (0.0, {"bat_d": d, "bat_n": n, "hit": np.zeros(3)}),
+            (0.05, {"bat_d": d}), (0.3, {"bat_d": d, "bat_n": n})]
+    out = reshape("x", keys, {"shots": {"x": [(-0.1, 0.1, what, 30.0)]}})
+    assert out[0] == keys[0] and out[2] == keys[2] and out[3] == keys[3]
+    k = out[1][1]
+    assert np.array_equal(k["hit"], keys[1][1]["hit"])
+    if what == "lean":
+        assert np.allclose(k["bat_n"], n) and np.isclose(np.degrees(np.arccos(k["bat_d"] @ d)), 30.0)
+        assert abs(k["bat_d"] @ n) < 1e-12
+    else:
+        assert np.allclose(k["bat_d"], d) and np.isclose(np.degrees(np.arccos(k["bat_n"] @ n)), 30.0)
+        assert abs(k["bat_n"] @ d) < 1e-12
