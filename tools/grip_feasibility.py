@@ -1,6 +1,7 @@
 """Can the arms hold a shot's keyed bat with a given grip? Per frame and arm, the least
-excess over the rig's joint limits (degrees, summed over the arm's joints: tools/shots_arms
-ArmSolver.excess) that any elbow on its circle allows, with the bat's roll free where the
+excess over the rig's joint limits and the shoulder's ranges (degrees, summed over the arm's
+joints, the horizontal and the axial range: tools/shots_arms ArmSolver.excess and
+shoulder_excess) that any elbow on its circle allows, with the bat's roll free where the
 authoring lets it turn (tools/shots_roll) and the bottom hand's turns and slides on the handle
 (tools/shots_grips). A frame no elbow can hold is one the keys must change for that grip;
 the arms' solve would clamp it, and the bat would jump there.
@@ -46,7 +47,8 @@ def least_excess(solver, T: dict) -> dict:
             for w, r in hands:
                 ang = arms.angles(g_pos[:, arms.ix[pre + "Arm"]], w, r, g_rot[:, arms.ix[pre + "Shoulder"]],
                                   l1, l2, side, psi)
-                least = arms.excess(ang, pre).min(1)
+                across, turned = arms.shoulder_excess(ang, pre, g_rot[:, arms.ix["Spine2"]])
+                least = (arms.excess(ang, pre) + across + turned).min(1)
                 best[pre] = np.minimum(best[pre], np.where(free | (roll == 0.0), least, np.inf))
     return best
 

@@ -21,35 +21,29 @@ from .shots_maths import rot_axis, unit
 
 GRIPS = {
     "library": {"top_toe_deg": -90.0, "top_face_deg": 0.0, "right": "library", "hand_y": [-75, 55]},
-    "anatomical": {"top_toe_deg": 20.0, "top_face_deg": -60.0,
+    "anatomical": {"top_toe_deg": 20.0, "top_face_deg": -165.0,
                    "right": {"toe_deg": 20.0, "face_deg": -90.0}, "hand_y": [-20, 30],
                    # the shared stance and rest re-keyed for it (tools/shots_defs), where the
                    # arms' comfort (tools/shots_arms.ArmSolver.cost, the shoulder's ranges
                    # included) is least at the keyed roll, so the authoring's roll pass leaves the
                    # bat still in them, and both wrists within make_shots.shared_reach: in the
-                   # stance the bat leans 10 deg more toward the batsman, its face turned 75 deg
-                   # toward him; at rest it leans 10 deg toward the off side, its face turned 45 deg
-                   # to the off side. The top wrist prefers no deviation (the library's 50 and 30
-                   # deg radial, past AAOS's 20).
-                   "stance": {"bat_d": [-0.2215, -0.9701, -0.0994], "bat_n": [0.8217, -0.2406, 0.5166],
-                              "wrist_pref": 0.0},
-                   "rest": {"bat_d": [0.1979, -0.9753, -0.0984], "bat_n": [-0.8524, -0.2208, 0.4741],
+                   # stance the bat is grounded 8 cm further back and 6 cm toward the off side,
+                   # its face open 45 deg toward point; at rest it hangs 10 deg toward the
+                   # batsman, its face open 30 deg. The top wrist prefers no deviation (the
+                   # library's 50 and 30 deg radial, past AAOS's 20).
+                   "stance": {"toe": [-9.0, 1.5, 98.0], "bat_d": [-0.0497, -0.9938, -0.0994],
+                              "bat_n": [-0.882, -0.003, 0.4712], "wrist_pref": 0.0},
+                   "rest": {"bat_d": [0.0255, -0.9948, -0.0984], "bat_n": [-0.7268, -0.0861, 0.6814],
                             "wrist_pref": 0.0},
                    # the shots' bat keys turned where no elbow held them (tools/grip_feasibility;
-                   # a greedy search, 20 and 40 deg a step: reshape); -0.11..0.11 is the swing
+                   # a greedy search, 20 or 40 deg a step: reshape); -0.11..0.11 s is the swing
+                   # through the ball, leant 20 deg about the face normal in five shots
                    "shots": {
-                       "forward_defence": [(-0.161, -0.159, "face", 40)],
-                       "back_foot_defence": [(-0.11, 0.11, "lean", -40), (-0.581, -0.579, "face", 40)],
-                       "straight_drive": [(-0.361, -0.359, "lean", -20)],
-                       "cover_drive": [(0.579, 0.581, "lean", 40), (0.419, 0.421, "lean", -80),
-                                       (-0.361, -0.359, "lean", -20), (-0.11, 0.11, "lean", -20)],
-                       "square_cut": [(-0.11, 0.11, "lean", -20)],
-                       "pull": [(-0.11, 0.11, "lean", -40), (-0.581, -0.579, "face", 40),
-                                (0.269, 0.271, "face", -40), (0.499, 0.501, "face", 40),
-                                (0.399, 0.401, "lean", -40)],
-                       "leg_glance": [(-0.11, 0.11, "lean", -40), (0.119, 0.121, "face", 40),
-                                      (0.119, 0.121, "lean", -20)],
-                       "sweep": [(-0.11, 0.11, "lean", -20)],
+                       "back_foot_defence": [(-0.11, 0.11, "lean", 20)],
+                       "cover_drive": [(0.579, 0.581, "lean", 20), (-0.361, -0.359, "face", 20)],
+                       "square_cut": [(-0.11, 0.11, "lean", 20)],
+                       "pull": [(-0.11, 0.11, "lean", 20)],
+                       "sweep": [(-0.11, 0.11, "lean", 20)],
                    }},
 }
 

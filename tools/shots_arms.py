@@ -155,6 +155,12 @@ class ArmSolver:
                 + over(e[..., 2] / 2, ix[pre + "Arm"], 2) + over(h[..., 0], ix[pre + "ForeArmRoll"], 2)
                 + over(h[..., 1], ix[pre + "Hand"], 0) + over(h[..., 2], ix[pre + "Hand"], 1))
 
+    def shoulder_excess(self, ang, pre, chest):
+        """Degrees ``(..., K)`` past the shoulder's horizontal range and past the humerus's axial
+        range (tools/shots_check) of ``angles``' answers, the chest's rotation ``chest (F, 3, 3)``."""
+        plane, elevation, axial = humerothoracic(chest[:, None], ang["upper_rot"], pre)
+        return horizontal_excess(elevation, plane), axial_excess(elevation, axial)
+
     def cost(self, ang, pre, s, pref, body=None):
         e, h = ang["upper"], ang["hand"]
         viol = self.excess(ang, pre)
@@ -164,8 +170,7 @@ class ArmSolver:
             # arm past the horizontal range at shoulder height lies through the neck or the back
             near = np.maximum(0.0, TRUNK_CM - distance_to_polyline(ang["elbow"], body["spine"][:, None]))
             viol = viol + body["trunk_weight"] * near
-            plane, elevation, axial = humerothoracic(body["chest"][:, None], ang["upper_rot"], pre)
-            across, turned = horizontal_excess(elevation, plane), axial_excess(elevation, axial)
+            across, turned = self.shoulder_excess(ang, pre, body["chest"])
             comfort = 50.0 * body["shoulder_weight"] * ((across / self.SHOULDER_DEG) ** 2 + (turned / self.AXIAL_DEG) ** 2)
         # elbows hang: prefer the elbow below the shoulder-wrist line
         return ((h[..., 1] / 35.0) ** 2 + ((s * h[..., 2] + pref) / 20.0) ** 2
