@@ -10,8 +10,13 @@ up the handle.
   down (an ice-pick grip: the top hand's toe beyond the little finger, the bottom hand's thumb
   up the handle), so the bat's hang asks the wrists for 55-75 deg of deviation (AAOS: radial
   20, ulnar 30); the rig's Hand y is widened for it.
-- ``anatomical``: a real grip. The top hand's toe beyond the thumb and forefinger, the handle
-  diagonal across the fingers; the bottom hand's palm behind the face. Hand y at AAOS.
+- ``anatomical``: the toe beyond thumb and forefinger in both hands, 20 deg from the fingers
+  (a diagonal grip would be 40-70: the library's bat keys hold the bat nearer the forearms'
+  line than that lets the wrists follow); the face on the palms' side, as a bat picked up face
+  down is held (the top hand's 165 deg round the handle from the back of the hand, the bottom
+  hand's 90 from the palm: where tools/grip_feasibility found the keys held best). Hand y at
+  AAOS. Its re-keys of the shared stance and rest and of some shots' bat keys are data here
+  (``regrip``, ``reshape``); the arms' authoring is not re-tuned for it (docs/history.md).
 """
 from __future__ import annotations
 

@@ -75,7 +75,8 @@ way with re-keyed shots (the stance's bat leaning back 20 deg; the pull's, glanc
 bat axes at the hit turned 20-40 deg about their face normals): every shot then hit with the
 face inside its region, but the arms' authoring was not re-tuned (elbow pops 45 -> 97,
 horizontal 40 -> 70, axial 25 -> 83 arm-frames; the adapted face at the offset grid's corners
-turned up to 14 deg, 4 allowed). tools/grip_feasibility counts the frames to re-key.
+turned up to 14 deg, 4 allowed). tools/grip_feasibility counts the frames to re-key;
+docs/history.md has the anatomical grip's builds since.
 """
 import json
 from functools import partial
