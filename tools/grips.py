@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .shots_maths import rot_axis, unit
+from .shots_maths import rot_axis, turn, unit
 
 GRIPS = {
     "library": {"top_toe_deg": -90.0, "top_face_deg": 0.0, "right": "library", "hand_y": [-75, 55]},
@@ -63,9 +63,9 @@ def reshape(name: str, keys: list, grip: dict) -> list:
     for t, k in keys:
         for t0, t1, what, deg in edits:
             if t0 <= t <= t1 and "bat_d" in k and "bat_n" in k:
-                d, n = np.asarray(k["bat_d"], float), unit(np.asarray(k["bat_n"], float))
+                d, n = unit(np.asarray(k["bat_d"], float)), unit(np.asarray(k["bat_n"], float))
                 n = unit(n - d * (n @ d))
-                k = {**k, "bat_d": _about(n, d, deg)} if what == "lean" else {**k, "bat_n": _about(d, n, deg)}
+                k = {**k, "bat_d": turn(n, deg, d)} if what == "lean" else {**k, "bat_n": turn(d, deg, n)}
         out.append((t, k))
     return out
 
@@ -86,12 +86,6 @@ def regrip(keys: list, grip: dict, stance: dict, rest: dict) -> list:
     return [(t, swap(k)) for t, k in keys]
 
 
-def _about(axis: np.ndarray, v: np.ndarray, deg: float) -> np.ndarray:
-    """``v`` turned ``deg`` about the unit ``axis`` (Rodrigues)."""
-    a, c, s = unit(axis), np.cos(np.radians(deg)), np.sin(np.radians(deg))
-    return v * c + np.cross(a, v) * s + a * (a @ v) * (1.0 - c)
-
-
 def top_hand(grip: dict) -> tuple[list, list]:
     """The rig's ``bat.axis`` (handle -> toe) and ``bat.face_normal`` in LeftHand's frame:
     the toe turned ``top_toe_deg`` from the fingers (+X) toward the thumb (+Z; -90: toward the
@@ -99,7 +93,7 @@ def top_hand(grip: dict) -> tuple[list, list]:
     the handle."""
     t = np.radians(grip["top_toe_deg"])
     toe = np.array([np.cos(t), 0.0, np.sin(t)])
-    face = _about(toe, np.array([0.0, 1.0, 0.0]), grip["top_face_deg"])
+    face = turn(toe, grip["top_face_deg"], np.array([0.0, 1.0, 0.0]))
     clean = lambda v: [round(float(x), 12) + 0.0 for x in v]
     return clean(toe), clean(face)
 
@@ -114,7 +108,7 @@ def right_in_bat(grip: dict) -> np.ndarray:
         return rot_axis(2, 180.0) @ rot_axis(1, -60.0) @ rot_axis(2, 40.0)
     t = np.radians(right["toe_deg"])
     toe = np.array([-np.cos(t), 0.0, np.sin(t)])                 # from the fingers (-X) toward the thumb
-    face = _about(toe, np.array([0.0, -1.0, 0.0]), right["face_deg"])  # the palm behind the face
+    face = turn(toe, right["face_deg"], np.array([0.0, -1.0, 0.0]))  # the palm behind the face
     z = -toe
     bat_in_hand = np.stack([np.cross(face, z), face, z], -1)
     return bat_in_hand.T

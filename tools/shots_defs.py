@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .shots_maths import perp, unit
+from .shots_maths import perp, turn, unit
 from .shots_keys import face_for_forearm
 
 V = lambda *a: np.array(a, float)
@@ -136,12 +136,6 @@ def bat(grip=None, d=None, n=None, hit=None, x=None):
     else:
         k["grip"] = V(*grip)
     return k
-
-
-def turn(axis: np.ndarray, deg: float, v: np.ndarray) -> np.ndarray:
-    """``v`` turned ``deg`` degrees about the unit ``axis`` (Rodrigues)."""
-    a = np.radians(deg)
-    return v * np.cos(a) + np.cross(axis, v) * np.sin(a) + axis * (axis @ v) * (1 - np.cos(a))
 
 
 def swing(hit, d, n, v, peak, pivot, frames=(-3, 3), widths=(2.6, 2.0)) -> list:

@@ -23,6 +23,12 @@ def rot_axis(axis: int, deg: np.ndarray) -> np.ndarray:
     return quat.to_matrix(quat._axis_quat(axis, np.asarray(deg, float)))
 
 
+def turn(axis: np.ndarray, deg: float, v: np.ndarray) -> np.ndarray:
+    """``v`` turned ``deg`` degrees about the unit ``axis`` (Rodrigues)."""
+    a = np.radians(deg)
+    return v * np.cos(a) + np.cross(axis, v) * np.sin(a) + axis * (axis @ v) * (1 - np.cos(a))
+
+
 def frame_from_yz(y: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Orthonormal frame with Y exactly along ``y`` and Z as close to ``z`` as possible."""
     Y = unit(y)
