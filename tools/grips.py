@@ -53,6 +53,11 @@ GRIPS = {
 }
 
 
+def grip_of(rig) -> dict:
+    """The grip ``rig`` holds its bat with (its ``bat.grip``; a rig that names none: ``library``)."""
+    return GRIPS[rig.bat.get("grip", "library")]
+
+
 def reshape(name: str, keys: list, grip: dict) -> list:
     """Shot ``name``'s keys with the grip's edits (its ``shots[name]``: ``(t_from, t_to, what,
     deg)`` each) made to the bat keys that hold both an axis and a face between ``t_from`` and

@@ -23,12 +23,11 @@ import numpy as np
 
 from engine import bvh, cleanup, quat
 from engine.library import Shot
-from engine.rig import assets_dir, default_rig
+from engine.rig import assets_dir, default_rig, rig_from_dict
 from engine.skeleton import Clip, clip_fk
 
 from . import shots_check as chk
-from .grips import GRIPS, regrip, reshape
-from .make_rig import grip_rig
+from .grips import GRIPS, grip_of, regrip, reshape
 from .make_rig import rig as rig_dict
 from .shots_defs import REST, SHOTS, STANCE
 from .shots_ik import PoseSolver, fit_torso, shoulder_positions
@@ -83,7 +82,7 @@ def shared_reach(solver, d_min: float = 27.0, d_max: float = 48.0) -> None:
     key out of that reach is corrected on every frame but its own and the
     bat jumps between them (the stance's left wrist at 53.5 cm of 54 lifted
     the bat 26 cm over frames 0-3 of every shot)."""
-    grip = GRIPS[solver.rig.bat.get("grip", "library")]
+    grip = grip_of(solver.rig)
     for pose_name, pose in (("STANCE", STANCE), ("REST", REST)):
         pose = regrip([(0.0, pose)], grip, STANCE, REST)[0][1]
         tr = tracks([(0.0, dict(pose)), (1.0, dict(pose))], np.zeros(1), solver)
@@ -113,7 +112,7 @@ def planned(name: str, rig, noise: bool = True, keyed=None):
     """What ``build`` hands the pose solver: (the PoseSolver, its world targets ``T`` with
     the bat's ``roll_weight``, the hit frame, the description, info: ``tracks``, ``unfold_cm``)."""
     keys, description = keyed or SHOTS[name]()
-    grip = GRIPS[rig.bat.get("grip", "library")]
+    grip = grip_of(rig)
     keys = reshape(name, regrip(keys, grip, STANCE, REST), grip)
     t0, t1 = keys[0][0], keys[-1][0]
     n_pre, n_post = int(round(-t0 * FPS)), int(round(t1 * FPS))
@@ -212,12 +211,13 @@ def main(argv=None):
     if a.only and a.only not in SHOTS:
         ap.error(f"unknown shot {a.only!r} (known: {', '.join(SHOTS)})")
     rig = default_rig()
-    if a.grip and a.grip != rig.bat.get("grip", "library"):
+    if a.grip and GRIPS[a.grip] is not grip_of(rig):
         if not a.out:
             ap.error(f"--grip {a.grip} is not the bundled rig's grip: give --out")
-        rig = grip_rig(a.grip)
+        data = rig_dict(a.grip)
+        rig = rig_from_dict(data)
         Path(a.out).mkdir(parents=True, exist_ok=True)
-        bvh.atomic_write_text(Path(a.out) / "rig.json", json.dumps(rig_dict(a.grip), indent=1) + "\n")
+        bvh.atomic_write_text(Path(a.out) / "rig.json", json.dumps(data, indent=1) + "\n")
     out = Path(a.out or assets_dir() / "shots")
     out.mkdir(parents=True, exist_ok=True)
     names = [a.only] if a.only else list(SHOTS)

@@ -13,7 +13,7 @@ import numpy as np
 from engine import quat
 from engine.skeleton import forward_kinematics
 
-from .grips import GRIPS, right_in_bat
+from .grips import grip_of, right_in_bat
 from .shots_arms import ArmSolver
 from .shots_check import clamp_into_limits
 from .shots_grips import BottomHand
@@ -63,7 +63,7 @@ class PoseSolver:
         # right palm centre in RightHand's frame: the mirror of the left grip
         self.right_grip = self.left_grip * np.array([-1.0, 1.0, 1.0])
         # how the bottom hand holds the handle: the rig's grip (tools/grips)
-        self.right_in_bat = right_in_bat(GRIPS[bat.get("grip", "library")])
+        self.right_in_bat = right_in_bat(grip_of(rig))
         self.arms = ArmSolver(rig)
         self.bottom_hand = BottomHand(self.right_in_bat, self.right_grip)
 
