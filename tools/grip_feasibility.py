@@ -22,9 +22,8 @@ from .make_rig import grip_rig
 from .make_shots import planned
 from .shots_defs import SHOTS
 from .shots_maths import rot_axis
+from .shots_roll import FREE_ROLLS, FREE_WEIGHT
 
-FREE_ROLLS = np.arange(-60.0, 60.1, 15.0)   # deg about the handle where the roll is cheap
-FREE_WEIGHT = 1.0       # roll_weight below this: the authoring's roll pass turns the bat freely
 ELBOW_STEP_DEG = 10.0   # the elbow circle's sampling
 OVER_DEG = 5.0          # a frame with more excess than this needs re-keying for the grip
 

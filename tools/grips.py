@@ -16,7 +16,12 @@ up the handle.
   down is held (the top hand's 165 deg round the handle from the back of the hand, the bottom
   hand's 90 from the palm: where tools/grip_feasibility found the keys held best). Hand y at
   AAOS. Its re-keys of the shared stance and rest and of some shots' bat keys are data here
-  (``regrip``, ``reshape``); the arms' authoring is not re-tuned for it (docs/history.md).
+  (``regrip``, ``reshape``); its build leans the bat frame by frame toward where the arms hold
+  it (``lean_pass``: tools/shots_lean) and charges the elbows' pops more (``elbow_weight``).
+  Built, it is still short of the library's arm bounds (docs/history.md).
+
+A grip's optional keys: ``stance``, ``rest`` and ``shots`` (re-keys), ``lean_pass`` (bool),
+``elbow_weight`` (tools/shots_arms.ArmSolver.ELBOW_WEIGHT).
 """
 from __future__ import annotations
 
@@ -43,6 +48,9 @@ GRIPS = {
                    # the shots' bat keys turned where no elbow held them (tools/grip_feasibility;
                    # a greedy search, 20 or 40 deg a step: reshape); -0.11..0.11 s is the swing
                    # through the ball, leant 20 deg about the face normal in five shots
+                   # the bat leant toward where the arms hold it (tools/shots_lean), and the
+                   # elbows' pops charged more (tools/shots_arms.ArmSolver.ELBOW_WEIGHT)
+                   "lean_pass": True, "elbow_weight": 10.0,
                    "shots": {
                        "back_foot_defence": [(-0.11, 0.11, "lean", 20)],
                        "cover_drive": [(0.579, 0.581, "lean", 20), (-0.361, -0.359, "face", 20)],

@@ -32,6 +32,7 @@ from .make_rig import rig as rig_dict
 from .shots_defs import REST, SHOTS, STANCE
 from .shots_ik import PoseSolver, fit_torso, shoulder_positions
 from .shots_keys import FPS, targets, tracks
+from .shots_lean import choose_lean
 
 # noise amplitude per channel (cm or degrees): a captured batsman never
 # repeats a key pose exactly; feet are left alone so planted feet stay planted
@@ -143,6 +144,9 @@ def planned(name: str, rig, noise: bool = True, keyed=None):
     near_hit = np.exp(-0.5 * (times / 0.06) ** 2)
     T["roll_weight"] = 0.05 + 200.0 * near_hit + 200.0 * (1.0 - envelope(len(times), 6))
     T["roll_weight"][n_pre] = np.inf          # the face meets the ball as keyed
+    if grip.get("lean_pass"):
+        turn, info["lean"] = choose_lean(solver, T, n_pre)
+        T["bat_rot"] = T["bat_rot"] @ turn
     return solver, T, n_pre, description, info
 
 

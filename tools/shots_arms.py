@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .grips import grip_of
 from .shots_check import (TRUNK_CM, TRUNK_JOINTS, distance_to_polyline, axial_excess, horizontal_excess,
                           humerothoracic, outside)
 from .shots_maths import euler, perp, rel, rot_axis, unit
@@ -19,6 +20,8 @@ class ArmSolver:
 
     def __init__(self, rig):
         self.rig = rig
+        # a grip may charge the elbow's pops more (tools/grips: ``elbow_weight``)
+        self.ELBOW_WEIGHT = grip_of(rig).get("elbow_weight", self.ELBOW_WEIGHT)
         self.ix = {n: i for i, n in enumerate(rig.skeleton.names)}
         self.off = rig.skeleton.offsets
 

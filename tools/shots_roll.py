@@ -11,6 +11,10 @@ from .shots_viterbi import continuity_charge, step_charge, viterbi
 ROLLS = np.arange(-180.0, 180.0, 7.5)     # the full circle: a follow-through may turn the face over
 SPEED_WEIGHT = 300.0    # per cm^2 the roll adds to the Bat joint's keyed step
 FLIP_DEG, FLIP_WEIGHT = 40.0, 1e5
+# what the planning passes (tools/grip_feasibility, tools/shots_lean) let this one do: where the
+# roll weight is below FREE_WEIGHT it turns the bat freely, by about FREE_ROLLS
+FREE_ROLLS = np.arange(-60.0, 60.1, 15.0)
+FREE_WEIGHT = 1.0
 
 
 def choose_roll(poses, arms, g_rot, g_pos, T, pref):

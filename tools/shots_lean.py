@@ -1,0 +1,99 @@
+"""The bat's lean for the shot authoring (tools/make_shots.planned), for a grip that asks for it
+(tools/grips: ``lean_pass``): the keyed bat turned, per frame, toward a pose both arms can hold
+with that grip, chosen by Viterbi over the whole shot.
+
+The bundled shots' bat keys were authored with an upside-down grip; held with the anatomical
+grip, no elbow holds a fifth of their frames inside the limits and the shoulder's ranges
+(tools/grip_feasibility). Each frame may turn the keyed bat up to MAX_DEG about its face normal
+(``lean``: the face, so the ball's direction, kept) and across the blade (``tilt``: the face
+turns): a frame's cost is what the turn moves the bat from its key plus both arms' least excess
+(as grip_feasibility counts it), the path's what it turns between frames and any blade step
+faster than the keyed shot's fastest. At the hit only the lean is free: the face meets the ball
+as keyed. The first and last frames are pinned (tools/shots_viterbi), so the shared stance and
+rest stay shared.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .shots_maths import rot_axis
+from .shots_roll import FREE_ROLLS, FREE_WEIGHT
+from .shots_viterbi import step_charge, viterbi
+
+STEP_DEG = 15.0         # the states' grid: lean and tilt each -MAX_DEG..MAX_DEG
+MAX_DEG = 60.0
+KEY_DEG = 20.0          # turned this far from its key costs as much as EXCESS_DEG past a limit
+EXCESS_DEG = 5.0        # (grip_feasibility's OVER_DEG: a frame over it needs the bat moved)
+TURN_WEIGHT = 50.0      # per rad^2 the bat's turn changes between two frames
+CONTACT_FRAMES = 2      # frames either side of the hit where the face is kept (tilt 0)
+SMOOTH_FRAMES = 1.5     # the chosen path's 15-degree steps smoothed (Gaussian sigma, frames)
+SPEED_WEIGHT = 300.0    # per cm^2 the blade moves a frame beyond the keyed shot's fastest step
+ELBOW_STEP_DEG = 15.0   # the elbow circle's sampling
+
+
+def states() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lean ``(S,)``, tilt ``(S,)`` degrees, turns ``(S, 3, 3)``: Ry(lean) Rx(tilt) in the bat's frame)."""
+    g = np.arange(-MAX_DEG, MAX_DEG + 0.1, STEP_DEG)
+    lean, tilt = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    return lean, tilt, rot_axis(1, lean) @ rot_axis(0, tilt)
+
+
+def arm_costs(solver, T, turns, g_rot, g_pos) -> np.ndarray:
+    """``(F, S)``: for the keyed bat turned by each of ``turns``, both arms' least excess
+    (``excess``) over their elbow circles, the bat's free rolls (where ``T["roll_weight"]`` < FREE_WEIGHT;
+    one roll for both arms) and, for the bottom hand, its turns on the handle."""
+    arms, bottom = solver.arms, solver.bottom_hand
+    F = len(T["grip"])
+    psi = np.radians(np.arange(0.0, 360.0, ELBOW_STEP_DEG))[None]
+    free = T["roll_weight"] < FREE_WEIGHT
+    out = np.full((F, len(turns)), np.inf)
+    for s, turn in enumerate(turns):
+        for roll in FREE_ROLLS:
+            lw, lr, rw, rr = solver.hand_targets(T["grip"], T["bat_rot"] @ turn @ rot_axis(2, np.full(F, roll)))
+            total = excess(arms, angles(arms, "Left", lw, lr, g_rot, g_pos, 1.0, psi), "Left", g_rot)
+            right = np.full(F, np.inf)
+            for t in bottom.TURNS:
+                w, r = bottom.turned(rw, rr, t)
+                c = excess(arms, angles(arms, "Right", w, r, g_rot, g_pos, -1.0, psi), "Right", g_rot)
+                right = np.minimum(right, c + (t / bottom.TURN_DEG) ** 2)
+            out[:, s] = np.minimum(out[:, s], np.where(free | (roll == 0.0), total + right, np.inf))
+    return out
+
+
+def excess(arms, ang, pre, g_rot):
+    """``(F,)``: the least excess (deg) over the arm's limits and the shoulder's ranges
+    (tools/grip_feasibility) of ``angles``' answers, squared in units of EXCESS_DEG."""
+    across, turned = arms.shoulder_excess(ang, pre, g_rot[:, arms.ix["Spine2"]])
+    return ((arms.excess(ang, pre) + across + turned).min(1) / EXCESS_DEG) ** 2
+
+
+def angles(arms, pre, wrist, hand_rot, g_rot, g_pos, side, psi):
+    l1, l2 = arms.lengths(pre)
+    return arms.angles(g_pos[:, arms.ix[pre + "Arm"]], wrist, hand_rot, g_rot[:, arms.ix[pre + "Shoulder"]],
+                       l1, l2, side, psi)
+
+
+def choose_lean(solver, T, hit: int) -> tuple[np.ndarray, np.ndarray]:
+    """The bat's turn per frame: (``(F, 3, 3)`` to right-multiply ``T["bat_rot"]`` by,
+    ``(F, 2)`` its lean and tilt in degrees)."""
+    lean, tilt, turns = states()
+    _, g_rot, g_pos = solver.body_pose(T)
+    F = len(T["grip"])
+    cost = (np.hypot(lean, tilt) / KEY_DEG)[None] ** 2
+    extra = TURN_WEIGHT * np.arccos(np.clip((np.einsum("aij,bij->ab", turns, turns) - 1.0) / 2.0, -1.0, 1.0)) ** 2
+    # the blade never faster than the keyed shot's own peak: the defences stay slow
+    blade = T["grip"][:, None] + np.einsum("fij,sjk,k->fsi", T["bat_rot"], turns, solver.bat_from_grip)
+    peak = np.linalg.norm(np.diff(blade[:, len(turns) // 2], axis=0), axis=-1).max()
+    extra = extra + step_charge(blade, np.full(F - 1, peak), SPEED_WEIGHT)
+    cost = cost + arm_costs(solver, T, turns, g_rot, g_pos)
+    contact = np.abs(np.arange(F) - hit) <= CONTACT_FRAMES
+    cost[np.ix_(contact, tilt != 0.0)] = np.inf
+    path = viterbi(cost, np.zeros(len(turns)), weight=0.0, extra=extra)
+    chosen = np.stack([lean[path], tilt[path]], -1)
+    k = np.exp(-0.5 * (np.arange(-5, 6) / SMOOTH_FRAMES) ** 2)
+    pad = np.pad(chosen, ((5, 5), (0, 0)), mode="edge")
+    smooth = np.stack([np.convolve(pad[:, i], k / k.sum(), "valid") for i in range(2)], -1)
+    # the face is kept at the contact: the tilt fades out smoothly about the hit
+    smooth[:, 1] *= 1.0 - np.exp(-0.5 * ((np.arange(F) - hit) / SMOOTH_FRAMES) ** 2)
+    smooth[[0, -1]] = chosen[[0, -1]]
+    return rot_axis(1, smooth[:, 0]) @ rot_axis(0, smooth[:, 1]), smooth
