@@ -29,6 +29,8 @@ CONTACT_FRAMES = 2      # frames either side of the hit where the face is kept (
 SMOOTH_FRAMES = 1.5     # the chosen path's 15-degree steps smoothed (Gaussian sigma, frames)
 SPEED_WEIGHT = 300.0    # per cm^2 the blade moves a frame beyond the keyed shot's fastest step
 ELBOW_STEP_DEG = 15.0   # the elbow circle's sampling
+FOLD_UNIT_CM = 2.0      # a wrist this much nearer its shoulder than ArmSolver.FOLD_CM costs as much
+                        # as EXCESS_DEG (without it the lean folded arms 14 -> 25 times)
 
 
 def states() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -40,8 +42,9 @@ def states() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def arm_costs(solver, T, turns, g_rot, g_pos) -> np.ndarray:
     """``(F, S)``: for the keyed bat turned by each of ``turns``, both arms' least excess
-    (``excess``) over their elbow circles, the bat's free rolls (where ``T["roll_weight"]`` < FREE_WEIGHT;
-    one roll for both arms) and, for the bottom hand, its turns on the handle."""
+    (``excess``) over their elbow circles, plus their wrists' fold, over the bat's free rolls
+    (where ``T["roll_weight"]`` < FREE_WEIGHT; one roll for both arms) and, for the bottom
+    hand, its turns on the handle."""
     arms, bottom = solver.arms, solver.bottom_hand
     F = len(T["grip"])
     psi = np.radians(np.arange(0.0, 360.0, ELBOW_STEP_DEG))[None]
@@ -56,6 +59,10 @@ def arm_costs(solver, T, turns, g_rot, g_pos) -> np.ndarray:
                 w, r = bottom.turned(rw, rr, t)
                 c = excess(arms, angles(arms, "Right", w, r, g_rot, g_pos, -1.0, psi), "Right", g_rot)
                 right = np.minimum(right, c + (t / bottom.TURN_DEG) ** 2)
+            # a lean that brings a wrist nearer its shoulder than FOLD_CM folds the arm shut
+            for w, pre in ((lw, "Left"), (rw, "Right")):
+                near = arms.FOLD_CM - np.linalg.norm(w - g_pos[:, arms.ix[pre + "Arm"]], axis=-1)
+                total = total + (np.maximum(0.0, near) / FOLD_UNIT_CM) ** 2
             out[:, s] = np.minimum(out[:, s], np.where(free | (roll == 0.0), total + right, np.inf))
     return out
 
