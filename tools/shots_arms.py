@@ -21,7 +21,7 @@ class ArmSolver:
     def __init__(self, rig):
         self.rig = rig
         # a grip may charge the elbow's pops more (tools/grips: ``elbow_weight``)
-        self.ELBOW_WEIGHT = grip_of(rig).get("elbow_weight", self.ELBOW_WEIGHT)
+        self.elbow_weight = grip_of(rig).get("elbow_weight", self.ELBOW_WEIGHT)
         self.ix = {n: i for i, n in enumerate(rig.skeleton.names)}
         self.off = rig.skeleton.offsets
 
@@ -72,7 +72,7 @@ class ArmSolver:
             between = turn_cost[1][pose][:, pose]
 
         def extra(f):       # frame by frame: (F-1, G*K, G*K) at once is gigabytes for the bottom hand
-            return step_charge(elbows[f:f + 2], allowed[f:f + 1], self.ELBOW_WEIGHT)[0] + between
+            return step_charge(elbows[f:f + 2], allowed[f:f + 1], self.elbow_weight)[0] + between
         choice = viterbi(cost, np.tile(psi, G), weight=15.0, extra=extra)
         chosen = pose[choice]
         wrist = np.stack(wrists)[chosen, np.arange(F)]

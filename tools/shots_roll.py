@@ -57,7 +57,7 @@ def choose_roll(poses, arms, g_rot, g_pos, T, pref):
     extra = flip_charge(T["bat_rot"]) + speed_charge(T["grip"], T["bat_rot"], poses.bat_from_grip)
     for pre in ("Left", "Right"):
         allowed = arms.elbow_step(wrists[pre], g_pos[:, arms.ix[pre + "Arm"]])
-        extra = extra + continuity_charge(arm_costs[pre], elbows[pre], allowed, arms.ELBOW_WEIGHT)
+        extra = extra + continuity_charge(arm_costs[pre], elbows[pre], allowed, arms.elbow_weight)
     return ROLLS[viterbi(costs, np.radians(ROLLS), weight=25.0, extra=extra)]
 
 
