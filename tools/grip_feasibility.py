@@ -43,12 +43,9 @@ def least_excess(solver, T: dict) -> dict:
         lw, lr, rw, rr = solver.hand_targets(T["grip"], T["bat_rot"] @ rot_axis(2, np.full(F, roll)))
         wrists, rots = solver.bottom_hand.grips(rw, rr)[:2]
         for pre, side, hands in (("Left", 1.0, [(lw, lr)]), ("Right", -1.0, zip(wrists, rots))):
-            l1, l2 = arms.lengths(pre)
             for w, r in hands:
-                ang = arms.angles(g_pos[:, arms.ix[pre + "Arm"]], w, r, g_rot[:, arms.ix[pre + "Shoulder"]],
-                                  l1, l2, side, psi)
-                across, turned = arms.shoulder_excess(ang, pre, g_rot[:, arms.ix["Spine2"]])
-                least = (arms.excess(ang, pre) + across + turned).min(1)
+                ang = arms.arm_angles(pre, w, r, g_rot, g_pos, side, psi)
+                least = arms.all_excess(ang, pre, g_rot[:, arms.ix["Spine2"]]).min(1)
                 best[pre] = np.minimum(best[pre], np.where(free | (roll == 0.0), least, np.inf))
     return best
 

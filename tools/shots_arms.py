@@ -96,6 +96,13 @@ class ArmSolver:
         return np.maximum(np.linalg.norm(np.diff(wrist, axis=0), axis=-1),
                           np.linalg.norm(np.diff(shoulder, axis=0), axis=-1)) + self.ELBOW_SLACK_CM
 
+    def arm_angles(self, pre, wrist, hand_rot, g_rot, g_pos, side, psi):
+        """``angles`` of arm ``pre`` from the pose's global rotations and positions
+        ``(F, J, 3, 3)``, ``(F, J, 3)``: its shoulder, its clavicle's rotation and its bones."""
+        l1, l2 = self.lengths(pre)
+        return self.angles(g_pos[:, self.ix[pre + "Arm"]], wrist, hand_rot, g_rot[:, self.ix[pre + "Shoulder"]],
+                           l1, l2, side, psi)
+
     def angles(self, S, W, hand_rot, parent, l1, l2, s, psi):
         """Joint angles for elbow circle angles ``psi (F or 1, K)``: dict of (F, K, ...) arrays."""
         d = W - S
@@ -163,6 +170,12 @@ class ArmSolver:
         range (tools/shots_check) of ``angles``' answers, the chest's rotation ``chest (F, 3, 3)``."""
         plane, elevation, axial = humerothoracic(chest[:, None], ang["upper_rot"], pre)
         return horizontal_excess(elevation, plane), axial_excess(elevation, axial)
+
+    def all_excess(self, ang, pre, chest):
+        """``(..., K)`` degrees: ``excess`` plus both of ``shoulder_excess``'s, what
+        tools/grip_feasibility and tools/shots_lean count."""
+        across, turned = self.shoulder_excess(ang, pre, chest)
+        return self.excess(ang, pre) + across + turned
 
     def cost(self, ang, pre, s, pref, body=None):
         e, h = ang["upper"], ang["hand"]

@@ -17,7 +17,8 @@ from .grips import grip_of, right_in_bat
 from .shots_arms import ArmSolver
 from .shots_check import clamp_into_limits
 from .shots_grips import BottomHand
-from .shots_maths import frame_from_yz, look_rotation, perp, rel, rot_axis, split_rotation, to_q, two_bone, unit, ypr
+from .shots_maths import (frame_from_yz, gaussian_smooth, look_rotation, perp, rel, rot_axis, split_rotation, to_q,
+                          two_bone, unit, ypr)
 from .shots_roll import choose_roll
 
 
@@ -241,8 +242,5 @@ def fit_torso(solver: PoseSolver, T: dict, chest_ypr: np.ndarray, env: np.ndarra
             r = np.linalg.norm(w - sh[:, k], axis=-1) / full
             cost = cost + (np.maximum(0, r - hi) / 0.02) ** 2 + (np.maximum(0, lo - r) / 0.02) ** 2
         best[f] = (dy[np.argmin(cost)], dp[np.argmin(cost)], dr[np.argmin(cost)])
-    k = np.exp(-0.5 * (np.arange(-6, 7) / 2.0) ** 2)
-    k /= k.sum()
-    pad = np.pad(best, ((6, 6), (0, 0)), mode="edge")
-    smooth = np.stack([np.convolve(pad[:, i], k, "valid") for i in range(3)], -1)
+    smooth = gaussian_smooth(best, 2.0, 6)
     return smooth * env[:, None]

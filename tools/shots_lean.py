@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .shots_maths import rot_axis
+from .shots_maths import gaussian_smooth, rot_axis
 from .shots_roll import FREE_ROLLS, FREE_WEIGHT
 from .shots_viterbi import step_charge, viterbi
 
@@ -53,11 +53,11 @@ def arm_costs(solver, T, turns, g_rot, g_pos) -> np.ndarray:
     for s, turn in enumerate(turns):
         for roll in FREE_ROLLS:
             lw, lr, rw, rr = solver.hand_targets(T["grip"], T["bat_rot"] @ turn @ rot_axis(2, np.full(F, roll)))
-            total = excess(arms, angles(arms, "Left", lw, lr, g_rot, g_pos, 1.0, psi), "Left", g_rot)
+            total = excess(arms, arms.arm_angles("Left", lw, lr, g_rot, g_pos, 1.0, psi), "Left", g_rot)
             right = np.full(F, np.inf)
             for t in bottom.TURNS:
                 w, r = bottom.turned(rw, rr, t)
-                c = excess(arms, angles(arms, "Right", w, r, g_rot, g_pos, -1.0, psi), "Right", g_rot)
+                c = excess(arms, arms.arm_angles("Right", w, r, g_rot, g_pos, -1.0, psi), "Right", g_rot)
                 right = np.minimum(right, c + (t / bottom.TURN_DEG) ** 2)
             # a lean that brings a wrist nearer its shoulder than FOLD_CM folds the arm shut
             for w, pre in ((lw, "Left"), (rw, "Right")):
@@ -68,16 +68,9 @@ def arm_costs(solver, T, turns, g_rot, g_pos) -> np.ndarray:
 
 
 def excess(arms, ang, pre, g_rot):
-    """``(F,)``: the least excess (deg) over the arm's limits and the shoulder's ranges
-    (tools/grip_feasibility) of ``angles``' answers, squared in units of EXCESS_DEG."""
-    across, turned = arms.shoulder_excess(ang, pre, g_rot[:, arms.ix["Spine2"]])
-    return ((arms.excess(ang, pre) + across + turned).min(1) / EXCESS_DEG) ** 2
-
-
-def angles(arms, pre, wrist, hand_rot, g_rot, g_pos, side, psi):
-    l1, l2 = arms.lengths(pre)
-    return arms.angles(g_pos[:, arms.ix[pre + "Arm"]], wrist, hand_rot, g_rot[:, arms.ix[pre + "Shoulder"]],
-                       l1, l2, side, psi)
+    """``(F,)``: the least of ``ArmSolver.all_excess`` over ``angles``' elbow places, squared
+    in units of EXCESS_DEG."""
+    return (arms.all_excess(ang, pre, g_rot[:, arms.ix["Spine2"]]).min(1) / EXCESS_DEG) ** 2
 
 
 def choose_lean(solver, T, hit: int) -> tuple[np.ndarray, np.ndarray]:
@@ -97,9 +90,7 @@ def choose_lean(solver, T, hit: int) -> tuple[np.ndarray, np.ndarray]:
     cost[np.ix_(contact, tilt != 0.0)] = np.inf
     path = viterbi(cost, np.zeros(len(turns)), weight=0.0, extra=extra)
     chosen = np.stack([lean[path], tilt[path]], -1)
-    k = np.exp(-0.5 * (np.arange(-5, 6) / SMOOTH_FRAMES) ** 2)
-    pad = np.pad(chosen, ((5, 5), (0, 0)), mode="edge")
-    smooth = np.stack([np.convolve(pad[:, i], k / k.sum(), "valid") for i in range(2)], -1)
+    smooth = gaussian_smooth(chosen, SMOOTH_FRAMES, 5)
     # the face is kept at the contact: the tilt fades out smoothly about the hit
     smooth[:, 1] *= 1.0 - np.exp(-0.5 * ((np.arange(F) - hit) / SMOOTH_FRAMES) ** 2)
     smooth[[0, -1]] = chosen[[0, -1]]

@@ -89,3 +89,12 @@ def look_rotation(eye: np.ndarray, target: np.ndarray) -> np.ndarray:
     z = unit(target - eye)
     x = unit(np.cross(np.array([0.0, 1.0, 0.0]), z))
     return np.stack([x, np.cross(z, x), z], -1)
+
+
+def gaussian_smooth(x: np.ndarray, sigma: float, radius: int) -> np.ndarray:
+    """``x (F, D)`` smoothed over frames by a normalised Gaussian (``sigma`` frames, taps
+    -radius..radius), the ends held (edge padding)."""
+    k = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
+    k /= k.sum()
+    pad = np.pad(x, ((radius, radius), (0, 0)), mode="edge")
+    return np.stack([np.convolve(pad[:, i], k, "valid") for i in range(x.shape[1])], -1)

@@ -39,9 +39,7 @@ def choose_roll(poses, arms, g_rot, g_pos, T, pref):
     for k, r in enumerate(ROLLS):
         lw, lr, rw, rr = poses.hand_targets(T["grip"], T["bat_rot"] @ rot_axis(2, np.full(F, r)))
         for pre, w, hr, s, pr in (("Left", lw, lr, 1.0, pref), ("Right", rw, rr, -1.0, 0 * pref)):
-            l1, l2 = arms.lengths(pre)
-            ang = arms.angles(g_pos[:, arms.ix[pre + "Arm"]], w, hr, g_rot[:, arms.ix[pre + "Shoulder"]],
-                              l1, l2, s, psi[None, :])
+            ang = arms.arm_angles(pre, w, hr, g_rot, g_pos, s, psi[None, :])
             arm_costs[pre][:, k] = arms.cost(ang, pre, s, pr[:, None], body)
             costs[:, k] += arm_costs[pre][:, k].min(1)
             elbows[pre][:, k] = ang["elbow"]
