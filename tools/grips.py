@@ -17,11 +17,14 @@ up the handle.
   hand's 90 from the palm: where tools/grip_feasibility found the keys held best). Hand y at
   AAOS. Its re-keys of the shared stance and rest and of some shots' bat keys are data here
   (``regrip``, ``reshape``); its build leans the bat frame by frame toward where the arms hold
-  it (``lean_pass``: tools/shots_lean) and charges the elbows' pops more (``elbow_weight``).
-  Built, it is still short of the library's arm bounds (docs/history.md).
+  it (``lean_pass``: tools/shots_lean), charges the elbows' pops more (``elbow_weight``), and
+  its top arm's pass leans the bat again with the elbow's place (``top_leans``:
+  tools/shots_grips.TopHand). Built, it is still short of the library's bounds on the humerus's
+  axial range, the face's turn and jerks (docs/history.md).
 
 A grip's optional keys: ``stance``, ``rest`` and ``shots`` (re-keys), ``lean_pass`` (bool),
-``elbow_weight`` (tools/shots_arms.ArmSolver.ELBOW_WEIGHT).
+``elbow_weight`` (tools/shots_arms.ArmSolver.ELBOW_WEIGHT), ``top_leans`` (degrees about the face
+normal the top arm's pass may lean the bat: tools/shots_grips.TopHand).
 """
 from __future__ import annotations
 
@@ -51,6 +54,8 @@ GRIPS = {
                    # the bat leant toward where the arms hold it (tools/shots_lean), and the
                    # elbows' pops charged more (tools/shots_arms.ArmSolver.ELBOW_WEIGHT)
                    "lean_pass": True, "elbow_weight": 10.0,
+                   # and the top arm's pass leans it again, with the elbow's place (tools/shots_grips.TopHand)
+                   "top_leans": [-40.0, -30.0, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0, 40.0],
                    "shots": {
                        "back_foot_defence": [(-0.11, 0.11, "lean", 20)],
                        "cover_drive": [(0.579, 0.581, "lean", 20), (-0.361, -0.359, "face", 20)],

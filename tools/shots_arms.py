@@ -46,7 +46,7 @@ class ArmSolver:
         The elbow may sit anywhere on its circle of solutions; a Viterbi pass
         over 72 elbow angles per frame, and over the hand's candidate poses (``wrists``,
         ``hand_rots``: G of ``(F, 3)`` and ``(F, 3, 3)``; ``turn_cost``: their costs ``(F, G)``
-        and the charges ``(G, G)`` between them, for G > 1), picks the path whose joint angles
+        and the charges ``(G, G)`` or per frame ``(F - 1, G, G)`` between them, for G > 1), picks the path whose joint angles
         stay comfortably inside the limits (wrist near its preferred deviation, small twists)
         and that moves smoothly from frame to frame. Returns (reach ``(F,)``: wrist distance
         over arm length, the hand pose chosen ``(F,)``).
@@ -69,10 +69,11 @@ class ArmSolver:
         between = 0.0
         if turn_cost is not None:
             cost = cost + turn_cost[0][:, pose]
-            between = turn_cost[1][pose][:, pose]
+            between = turn_cost[1][pose][:, pose] if np.ndim(turn_cost[1]) == 2 else turn_cost[1]
 
         def extra(f):       # frame by frame: (F-1, G*K, G*K) at once is gigabytes for the bottom hand
-            return step_charge(elbows[f:f + 2], allowed[f:f + 1], self.elbow_weight)[0] + between
+            b = between[f][pose][:, pose] if np.ndim(between) == 3 else between
+            return step_charge(elbows[f:f + 2], allowed[f:f + 1], self.elbow_weight)[0] + b
         choice = viterbi(cost, np.tile(psi, G), weight=15.0, extra=extra)
         chosen = pose[choice]
         wrist = np.stack(wrists)[chosen, np.arange(F)]

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .shots_maths import rot_axis
+from .shots_viterbi import step_charge
 
 
 class BottomHand:
@@ -61,3 +62,52 @@ class BottomHand:
                    + 1e4 * (np.maximum(0.0, turn_step - self.STEP_DEG) ** 2
                             + np.maximum(0.0, slide_step - self.SLIDE_STEP_CM) ** 2))
         return wrists, rots, costs, charges, turns, slides
+
+
+class TopHand:
+    """The top (left) hand's bat may lean about its face normal in the arms' pass, for a grip
+    that asks (tools/grips: ``top_leans``): the elbow's Viterbi (tools/shots_arms) then picks the
+    lean with its place on the circle, so a lean that keeps the elbow on its side is chosen where
+    one exists. The face, and so the ball's direction, is kept; the lean is held at 0 at the
+    shared ends and at the hit (the frames where the bat's roll is held: tools/shots_roll), where
+    the blade meets the ball as keyed."""
+
+    LEAN_DEG = 15.0    # a lean this far costs as much as the wrist 20 deg off its preference
+    STEP_WEIGHT = 5.0  # per 7.5 deg^2 the lean changes between frames
+    STEP_DEG = 10.0    # and no faster than this a frame (300 deg/s)
+    END_FRAMES = 3     # the first and last frames: the shared stance and rest
+    CONTACT_FRAMES = 1  # frames either side of the hit
+    SPEED_WEIGHT = 300.0   # per cm^2 the blade moves a frame beyond the keyed shot's fastest step
+
+    def __init__(self, leans, hand_targets, bat_from_grip):
+        self.leans = np.asarray(leans, float)
+        self.hand_targets = hand_targets
+        self.bat_from_grip = bat_from_grip
+
+    def held(self, roll_weight):
+        """``(F,)`` bool: where the lean is held at 0, from the roll pass's weights (tools/make_shots:
+        infinite at the hit)."""
+        F = len(roll_weight)
+        hit = np.flatnonzero(~np.isfinite(roll_weight))
+        near = np.abs(np.arange(F)[:, None] - hit[None, :]).min(1, initial=F) <= self.CONTACT_FRAMES
+        ends = (np.arange(F) < self.END_FRAMES) | (np.arange(F) >= F - self.END_FRAMES)
+        return near | ends
+
+    def grips(self, grip, bat_rot, held):
+        """The top hand's candidates for ArmSolver.solve from the bat's ``grip`` point ``(F, 3)``
+        and frame ``bat_rot`` ``(F, 3, 3)``, the lean held at 0 where ``held`` ``(F,)``: (G wrists
+        ``(F, 3)``, G hand rotations, costs ``(F, G)``, charges ``(F - 1, G, G)``, leans ``(G,)``
+        deg); the keyed lean (0) first. A lean moves the blade: a step faster than the keyed
+        shot's fastest is charged, so the defences stay slow."""
+        F = len(grip)
+        leans = self.leans[np.argsort(np.abs(self.leans), kind="stable")]
+        turned = [bat_rot @ rot_axis(1, np.full(F, a)) for a in leans]
+        hands = [self.hand_targets(grip, r)[:2] for r in turned]
+        blade = grip[:, None] + np.stack([r @ self.bat_from_grip for r in turned], 1)     # (F, G, 3)
+        peak = np.linalg.norm(np.diff(blade[:, 0], axis=0), axis=-1).max()
+        costs = np.tile((leans / self.LEAN_DEG) ** 2, (F, 1))
+        costs[np.ix_(held, leans != 0.0)] = np.inf
+        step = np.abs(leans[:, None] - leans[None, :])
+        charges = self.STEP_WEIGHT * (step / 7.5) ** 2 + 1e4 * np.maximum(0.0, step - self.STEP_DEG) ** 2
+        charges = charges + step_charge(blade, np.full(F - 1, peak), self.SPEED_WEIGHT)
+        return [h[0] for h in hands], [h[1] for h in hands], costs, charges, leans

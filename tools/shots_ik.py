@@ -16,7 +16,7 @@ from engine.skeleton import forward_kinematics
 from .grips import grip_of, right_in_bat
 from .shots_arms import ArmSolver
 from .shots_check import clamp_into_limits
-from .shots_grips import BottomHand
+from .shots_grips import BottomHand, TopHand
 from .shots_maths import (frame_from_yz, gaussian_smooth, look_rotation, perp, rel, rot_axis, split_rotation, to_q,
                           two_bone, unit, ypr)
 from .shots_roll import choose_roll
@@ -67,6 +67,8 @@ class PoseSolver:
         self.right_in_bat = right_in_bat(grip_of(rig))
         self.arms = ArmSolver(rig)
         self.bottom_hand = BottomHand(self.right_in_bat, self.right_grip)
+        leans = grip_of(rig).get("top_leans")
+        self.top_hand = TopHand(leans, self.hand_targets, self.bat_from_grip) if leans else None
 
     # ---- helpers
     def bone(self, name: str) -> float:
@@ -113,7 +115,14 @@ class PoseSolver:
             l_wrist, l_rot, r_wrist, r_rot = self.hand_targets(T["grip"], T["bat_rot"])
         info["bat_rot"] = T["bat_rot"]
         body = self.arms.body(g_rot, g_pos, T, trunk_weight=4.0)
-        info["Left_reach"] = self.arms.solve(L, g_rot, g_pos, "Left", [l_wrist], [l_rot], 1.0, pref, body)[0]
+        if self.top_hand is None:
+            info["Left_reach"] = self.arms.solve(L, g_rot, g_pos, "Left", [l_wrist], [l_rot], 1.0, pref, body)[0]
+        else:
+            held = self.top_hand.held(T["roll_weight"])
+            wrists, rots, costs, charges, leans = self.top_hand.grips(T["grip"], T["bat_rot"], held)
+            info["Left_reach"], chosen = self.arms.solve(L, g_rot, g_pos, "Left", wrists, rots, 1.0, pref,
+                                                         body, (costs, charges))
+            info["top_lean"] = leans[chosen]
         # the bat is the top hand's: where its arm is clamped into the limits the bat moves with
         # it, and the bottom hand holds the handle there (not where the keys had it)
         grip, bat_rot, info["top_arm_clamped_deg"] = self._clamped_top_arm(L, T["hips_pos"])

@@ -45,7 +45,7 @@ def arm_costs(solver, T, turns, g_rot, g_pos) -> np.ndarray:
     (``excess``) over their elbow circles, plus their wrists' fold, over the bat's free rolls
     (where ``T["roll_weight"]`` < FREE_WEIGHT; one roll for both arms) and, for the bottom
     hand, its turns on the handle."""
-    arms, bottom = solver.arms, solver.bottom_hand
+    arms = solver.arms
     F = len(T["grip"])
     psi = np.radians(np.arange(0.0, 360.0, ELBOW_STEP_DEG))[None]
     free = T["roll_weight"] < FREE_WEIGHT
@@ -54,16 +54,25 @@ def arm_costs(solver, T, turns, g_rot, g_pos) -> np.ndarray:
         for roll in FREE_ROLLS:
             lw, lr, rw, rr = solver.hand_targets(T["grip"], T["bat_rot"] @ turn @ rot_axis(2, np.full(F, roll)))
             total = excess(arms, arms.arm_angles("Left", lw, lr, g_rot, g_pos, 1.0, psi), "Left", g_rot)
-            right = np.full(F, np.inf)
-            for t in bottom.TURNS:
-                w, r = bottom.turned(rw, rr, t)
-                c = excess(arms, arms.arm_angles("Right", w, r, g_rot, g_pos, -1.0, psi), "Right", g_rot)
-                right = np.minimum(right, c + (t / bottom.TURN_DEG) ** 2)
+            right = bottom_excess(solver, rw, rr, g_rot, g_pos, psi)
             # a lean that brings a wrist nearer its shoulder than FOLD_CM folds the arm shut
             for w, pre in ((lw, "Left"), (rw, "Right")):
                 near = arms.FOLD_CM - np.linalg.norm(w - g_pos[:, arms.ix[pre + "Arm"]], axis=-1)
                 total = total + (np.maximum(0.0, near) / FOLD_UNIT_CM) ** 2
             out[:, s] = np.minimum(out[:, s], np.where(free | (roll == 0.0), total + right, np.inf))
+    return out
+
+
+def bottom_excess(solver, wrist, hand_rot, g_rot, g_pos, psi) -> np.ndarray:
+    """``(F,)``: the bottom arm's least ``excess`` holding the handle with its keyed ``wrist``
+    ``(F, 3)`` and ``hand_rot`` ``(F, 3, 3)`` over its elbow places ``psi`` ``(1, K)`` rad and its
+    hand's turns on the handle (each charged as tools/shots_grips.BottomHand charges it)."""
+    arms, bottom = solver.arms, solver.bottom_hand
+    out = np.full(len(wrist), np.inf)
+    for t in bottom.TURNS:
+        w, r = bottom.turned(wrist, hand_rot, t)
+        c = excess(arms, arms.arm_angles("Right", w, r, g_rot, g_pos, -1.0, psi), "Right", g_rot)
+        out = np.minimum(out, c + (t / bottom.TURN_DEG) ** 2)
     return out
 
 
