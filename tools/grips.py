@@ -19,12 +19,14 @@ up the handle.
   (``regrip``, ``reshape``); its build leans the bat frame by frame toward where the arms hold
   it (``lean_pass``: tools/shots_lean), charges the elbows' pops more (``elbow_weight``), and
   its top arm's pass leans the bat again with the elbow's place (``top_leans``:
-  tools/shots_grips.TopHand). Built, it is still short of the library's bounds on the humerus's
-  axial range, the face's turn and jerks (docs/history.md).
+  tools/shots_grips.TopHand), charges the shoulder's ranges at the hit too and a flipping face
+  harder. Built, it is still short of the library's bounds on the face's turn, jerks and the
+  defences' speed (docs/history.md).
 
 A grip's optional keys: ``stance``, ``rest`` and ``shots`` (re-keys), ``lean_pass`` (bool),
 ``elbow_weight`` (tools/shots_arms.ArmSolver.ELBOW_WEIGHT), ``top_leans`` (degrees about the face
-normal the top arm's pass may lean the bat: tools/shots_grips.TopHand).
+normal the top arm's pass may lean the bat: tools/shots_grips.TopHand),
+``shoulder_contact_frames`` (ArmSolver.CONTACT_FRAMES), ``flip_weight`` (tools/shots_roll.FLIP_WEIGHT).
 """
 from __future__ import annotations
 
@@ -56,6 +58,10 @@ GRIPS = {
                    "lean_pass": True, "elbow_weight": 10.0,
                    # and the top arm's pass leans it again, with the elbow's place (tools/shots_grips.TopHand)
                    "top_leans": [-40.0, -30.0, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0, 40.0],
+                   # its arms charged for the shoulder's ranges at the hit too (the library's are not:
+                   # the adaptation's face-keeping solve starts from those arms), and its roll pass
+                   # for a face turned faster than FLIP_DEG ten times harder (tools/shots_roll)
+                   "shoulder_contact_frames": 0, "flip_weight": 1e6,
                    "shots": {
                        "back_foot_defence": [(-0.11, 0.11, "lean", 20)],
                        "cover_drive": [(0.579, 0.581, "lean", 20), (-0.361, -0.359, "face", 20)],

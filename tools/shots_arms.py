@@ -22,6 +22,7 @@ class ArmSolver:
         self.rig = rig
         # a grip may charge the elbow's pops more (tools/grips: ``elbow_weight``)
         self.elbow_weight = grip_of(rig).get("elbow_weight", self.ELBOW_WEIGHT)
+        self.contact_frames = grip_of(rig).get("shoulder_contact_frames", self.CONTACT_FRAMES)
         self.ix = {n: i for i, n in enumerate(rig.skeleton.names)}
         self.off = rig.skeleton.offsets
 
@@ -46,10 +47,10 @@ class ArmSolver:
         The elbow may sit anywhere on its circle of solutions; a Viterbi pass
         over 72 elbow angles per frame, and over the hand's candidate poses (``wrists``,
         ``hand_rots``: G of ``(F, 3)`` and ``(F, 3, 3)``; ``turn_cost``: their costs ``(F, G)``
-        and the charges ``(G, G)`` or per frame ``(F - 1, G, G)`` between them, for G > 1), picks the path whose joint angles
-        stay comfortably inside the limits (wrist near its preferred deviation, small twists)
-        and that moves smoothly from frame to frame. Returns (reach ``(F,)``: wrist distance
-        over arm length, the hand pose chosen ``(F,)``).
+        and the charges ``(G, G)`` or per frame ``(F - 1, G, G)`` between them, for G > 1),
+        picks the path whose joint angles stay comfortably inside the limits (wrist near its
+        preferred deviation, small twists) and that moves smoothly from frame to frame. Returns
+        (reach ``(F,)``: wrist distance over arm length, the hand pose chosen ``(F,)``).
         """
         ix = self.ix
         names = ("Arm", "ArmRoll", "ForeArm", "ForeArmRoll", "Hand")
@@ -144,7 +145,7 @@ class ArmSolver:
         (moved, it loses the face at grid corners: tests/engine/test_face.py)."""
         F = g_pos.shape[0]
         hit = ~np.isfinite(T["roll_weight"]) if "roll_weight" in T else np.zeros(F, bool)
-        k = self.CONTACT_FRAMES
+        k = self.contact_frames
         contact = np.convolve(hit.astype(float), np.ones(2 * k + 1), "same") > 0
         return {"spine": g_pos[:, [self.ix[n] for n in self.TRUNK]], "chest": g_rot[:, self.ix["Spine2"]],
                 "trunk_weight": trunk_weight, "shoulder_weight": np.where(contact[:, None], 0.0, trunk_weight)}

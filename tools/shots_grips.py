@@ -77,6 +77,7 @@ class TopHand:
     STEP_DEG = 10.0    # and no faster than this a frame (300 deg/s)
     END_FRAMES = 3     # the first and last frames: the shared stance and rest
     CONTACT_FRAMES = 1  # frames either side of the hit
+    BOTTOM_DEG = 10.0  # a lean the bottom arm holds no nearer its limits and ranges is charged (PoseSolver)
     SPEED_WEIGHT = 300.0   # per cm^2 the blade moves a frame beyond the keyed shot's fastest step
 
     def __init__(self, leans, hand_targets, bat_from_grip):

@@ -19,7 +19,8 @@ from .shots_check import clamp_into_limits
 from .shots_grips import BottomHand, TopHand
 from .shots_maths import (frame_from_yz, gaussian_smooth, look_rotation, perp, rel, rot_axis, split_rotation, to_q,
                           two_bone, unit, ypr)
-from .shots_roll import choose_roll
+from .shots_lean import EXCESS_DEG, bottom_excess
+from .shots_roll import FLIP_WEIGHT, choose_roll
 
 
 # ----------------------------------------------------------------- the grip
@@ -69,6 +70,8 @@ class PoseSolver:
         self.bottom_hand = BottomHand(self.right_in_bat, self.right_grip)
         leans = grip_of(rig).get("top_leans")
         self.top_hand = TopHand(leans, self.hand_targets, self.bat_from_grip) if leans else None
+        # how hard the roll pass charges a face turned faster than wrists turn a bat (shots_roll)
+        self.flip_weight = grip_of(rig).get("flip_weight", FLIP_WEIGHT)
 
     # ---- helpers
     def bone(self, name: str) -> float:
@@ -118,8 +121,7 @@ class PoseSolver:
         if self.top_hand is None:
             info["Left_reach"] = self.arms.solve(L, g_rot, g_pos, "Left", [l_wrist], [l_rot], 1.0, pref, body)[0]
         else:
-            held = self.top_hand.held(T["roll_weight"])
-            wrists, rots, costs, charges, leans = self.top_hand.grips(T["grip"], T["bat_rot"], held)
+            wrists, rots, costs, charges, leans = self._top_hand_candidates(T, g_rot, g_pos)
             info["Left_reach"], chosen = self.arms.solve(L, g_rot, g_pos, "Left", wrists, rots, 1.0, pref,
                                                          body, (costs, charges))
             info["top_lean"] = leans[chosen]
@@ -132,6 +134,21 @@ class PoseSolver:
                                                     body, (costs, charges))
         info["right_grip_turn"], info["right_grip_slide"] = turns[grip], slides[grip]
         return T["hips_pos"], quat.make_continuous(to_q(L)), info
+
+    def _top_hand_candidates(self, T, g_rot, g_pos):
+        """TopHand.grips for the keyed bat, each lean also charged for what it asks of the bottom
+        arm: its least excess (tools/shots_lean.bottom_excess, its turns on the handle allowed)
+        past TopHand.BOTTOM_DEG, per (5 deg)^2 (without it the cover drive's follow-through
+        leant -30 deg where the bottom wrist then clamped 73 deg)."""
+        top = self.top_hand
+        wrists, rots, costs, charges, leans = top.grips(T["grip"], T["bat_rot"], top.held(T["roll_weight"]))
+        psi = np.radians(np.arange(0.0, 360.0, 15.0))[None]
+        F = len(costs)
+        for g, a in enumerate(leans):
+            _, _, rw, rr = self.hand_targets(T["grip"], T["bat_rot"] @ rot_axis(1, np.full(F, a)))
+            deg = EXCESS_DEG * np.sqrt(bottom_excess(self, rw, rr, g_rot, g_pos, psi))
+            costs[:, g] += (np.maximum(0.0, deg - top.BOTTOM_DEG) / EXCESS_DEG) ** 2
+        return wrists, rots, costs, charges, leans
 
     def body_pose(self, T: dict):
         """Everything but the arms, from the targets ``T`` (``solve``'s): local rotations

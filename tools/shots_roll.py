@@ -52,7 +52,7 @@ def choose_roll(poses, arms, g_rot, g_pos, T, pref):
     # frames keep the keyed face exactly
     costs[near] = np.where(ROLLS == 0.0, costs[near], np.inf)
     costs[[0, -1]] = np.where(ROLLS == 0.0, 0.0, np.inf)
-    extra = flip_charge(T["bat_rot"]) + speed_charge(T["grip"], T["bat_rot"], poses.bat_from_grip)
+    extra = flip_charge(T["bat_rot"], poses.flip_weight) + speed_charge(T["grip"], T["bat_rot"], poses.bat_from_grip)
     for pre in ("Left", "Right"):
         allowed = arms.elbow_step(wrists[pre], g_pos[:, arms.ix[pre + "Arm"]])
         extra = extra + continuity_charge(arm_costs[pre], elbows[pre], allowed, arms.elbow_weight)
@@ -69,11 +69,11 @@ def speed_charge(grip, bat_rot, bat_from_grip):
     return step_charge(bat, keyed, SPEED_WEIGHT)
 
 
-def flip_charge(bat_rot):
+def flip_charge(bat_rot, weight: float = FLIP_WEIGHT):
     """Transition charges ``(F-1, K, K)`` from roll i at frame f to roll j at f+1: the face
     turning faster than FLIP_DEG a frame (1200 deg/s), keyed turn and roll together,
-    is a flip the viewer shows; charged FLIP_WEIGHT per radian^2 beyond it."""
+    is a flip the viewer shows; charged ``weight`` per radian^2 beyond it."""
     r = np.radians(ROLLS)
     face = np.einsum("fij,kj->fki", bat_rot, np.stack([-np.sin(r), np.cos(r), 0.0 * r], -1))  # bat Y turned
     turn = np.arccos(np.clip(np.einsum("fid,fjd->fij", face[:-1], face[1:]), -1.0, 1.0))
-    return FLIP_WEIGHT * np.maximum(0.0, turn - np.radians(FLIP_DEG)) ** 2
+    return weight * np.maximum(0.0, turn - np.radians(FLIP_DEG)) ** 2

@@ -61,3 +61,15 @@ def test_the_built_shot_leans_but_not_at_the_hit_nor_the_shared_ends(candidates)
     lean = info["top_lean"]
     assert np.all(lean[held] == 0.0) and lean[hit] == 0.0 and lean[0] == lean[-1] == 0.0
     assert np.abs(lean).max() >= 10.0, "a pass that never leans does nothing"
+
+
+def test_a_lean_the_bottom_arm_cannot_follow_is_charged(candidates):
+    """The pose solver adds to each lean what it asks of the bottom arm past TopHand.BOTTOM_DEG:
+    never less than the lean's own cost, more somewhere (the anatomical forward defence's bottom
+    arm cannot hold every lean), and nothing for the keyed bat where the keys hold it."""
+    solver, T, _, held, (_, _, costs, _, leans) = candidates
+    _, g_rot, g_pos = solver.body_pose(T)
+    charged = solver._top_hand_candidates(T, g_rot, g_pos)[2]
+    assert charged.shape == costs.shape and np.all(charged >= costs)
+    assert np.any(charged[~held] > costs[~held] + 1.0)
+    assert np.median(charged[:, 0] - costs[:, 0]) == 0.0
