@@ -82,6 +82,8 @@ class TopHand:
 
     def __init__(self, leans, hand_targets, bat_from_grip):
         self.leans = np.asarray(leans, float)
+        if 0.0 not in self.leans:
+            raise ValueError(f"top_leans {list(leans)} must hold 0: the keyed bat, held at the hit and the ends")
         self.hand_targets = hand_targets
         self.bat_from_grip = bat_from_grip
 
@@ -105,10 +107,10 @@ class TopHand:
         turned = [bat_rot @ rot_axis(1, np.full(F, a)) for a in leans]
         hands = [self.hand_targets(grip, r)[:2] for r in turned]
         blade = grip[:, None] + np.stack([r @ self.bat_from_grip for r in turned], 1)     # (F, G, 3)
-        peak = np.linalg.norm(np.diff(blade[:, 0], axis=0), axis=-1).max()
+        peak = np.full(F - 1, np.linalg.norm(np.diff(blade[:, 0], axis=0), axis=-1).max())
         costs = np.tile((leans / self.LEAN_DEG) ** 2, (F, 1))
         costs[np.ix_(held, leans != 0.0)] = np.inf
         step = np.abs(leans[:, None] - leans[None, :])
         charges = self.STEP_WEIGHT * (step / 7.5) ** 2 + 1e4 * np.maximum(0.0, step - self.STEP_DEG) ** 2
-        charges = charges + step_charge(blade, np.full(F - 1, peak), self.SPEED_WEIGHT)
+        charges = charges + step_charge(blade, peak, self.SPEED_WEIGHT)
         return [h[0] for h in hands], [h[1] for h in hands], costs, charges, leans

@@ -116,7 +116,6 @@ class PoseSolver:
             info["roll"] = roll
             T = dict(T, bat_rot=T["bat_rot"] @ rot_axis(2, roll))
             l_wrist, l_rot, r_wrist, r_rot = self.hand_targets(T["grip"], T["bat_rot"])
-        info["bat_rot"] = T["bat_rot"]
         body = self.arms.body(g_rot, g_pos, T, trunk_weight=4.0)
         if self.top_hand is None:
             info["Left_reach"] = self.arms.solve(L, g_rot, g_pos, "Left", [l_wrist], [l_rot], 1.0, pref, body)[0]
@@ -128,6 +127,7 @@ class PoseSolver:
         # the bat is the top hand's: where its arm is clamped into the limits the bat moves with
         # it, and the bottom hand holds the handle there (not where the keys had it)
         grip, bat_rot, info["top_arm_clamped_deg"] = self._clamped_top_arm(L, T["hips_pos"])
+        info["bat_rot"] = bat_rot       # as the top hand holds it: rolled, leant, clamped
         _, _, r_wrist, r_rot = self.hand_targets(grip, bat_rot)
         wrists, rots, costs, charges, turns, slides = self.bottom_hand.grips(r_wrist, r_rot)
         info["Right_reach"], grip = self.arms.solve(L, g_rot, g_pos, "Right", wrists, rots, -1.0, 0 * pref,

@@ -73,3 +73,9 @@ def test_a_lean_the_bottom_arm_cannot_follow_is_charged(candidates):
     assert charged.shape == costs.shape and np.all(charged >= costs)
     assert np.any(charged[~held] > costs[~held] + 1.0)
     assert np.median(charged[:, 0] - costs[:, 0]) == 0.0
+
+
+def test_leans_without_the_keyed_bat_are_refused():
+    from tools.shots_grips import TopHand
+    with pytest.raises(ValueError, match="must hold 0"):
+        TopHand([-10.0, 10.0], None, None)
