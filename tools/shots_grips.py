@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .shots_maths import rot_axis
-from .shots_viterbi import step_charge
+from .shots_roll import speed_charge
 
 
 class BottomHand:
@@ -78,7 +78,6 @@ class TopHand:
     END_FRAMES = 3     # the first and last frames: the shared stance and rest
     CONTACT_FRAMES = 1  # frames either side of the hit
     BOTTOM_DEG = 10.0  # a lean the bottom arm holds no nearer its limits and ranges is charged (PoseSolver)
-    SPEED_WEIGHT = 300.0   # per cm^2 the blade moves a frame beyond the keyed shot's fastest step
 
     def __init__(self, leans, hand_targets, bat_from_grip):
         self.leans = np.asarray(leans, float)
@@ -106,11 +105,9 @@ class TopHand:
         leans = self.leans[np.argsort(np.abs(self.leans), kind="stable")]
         turned = [bat_rot @ rot_axis(1, np.full(F, a)) for a in leans]
         hands = [self.hand_targets(grip, r)[:2] for r in turned]
-        blade = grip[:, None] + np.stack([r @ self.bat_from_grip for r in turned], 1)     # (F, G, 3)
-        peak = np.full(F - 1, np.linalg.norm(np.diff(blade[:, 0], axis=0), axis=-1).max())
         costs = np.tile((leans / self.LEAN_DEG) ** 2, (F, 1))
         costs[np.ix_(held, leans != 0.0)] = np.inf
         step = np.abs(leans[:, None] - leans[None, :])
         charges = self.STEP_WEIGHT * (step / 7.5) ** 2 + 1e4 * np.maximum(0.0, step - self.STEP_DEG) ** 2
-        charges = charges + step_charge(blade, peak, self.SPEED_WEIGHT)
+        charges = charges + speed_charge(grip, bat_rot, self.bat_from_grip, rot_axis(1, leans), 0, at_peak=True)
         return [h[0] for h in hands], [h[1] for h in hands], costs, charges, leans

@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from .shots_maths import gaussian_smooth, rot_axis
-from .shots_roll import FREE_ROLLS, FREE_WEIGHT
-from .shots_viterbi import step_charge, viterbi
+from .shots_roll import FREE_ROLLS, FREE_WEIGHT, speed_charge
+from .shots_viterbi import viterbi
 
 STEP_DEG = 15.0         # the states' grid: lean and tilt each -MAX_DEG..MAX_DEG
 MAX_DEG = 60.0
@@ -27,7 +27,6 @@ EXCESS_DEG = 5.0        # (grip_feasibility's OVER_DEG: a frame over it needs th
 TURN_WEIGHT = 50.0      # per rad^2 the bat's turn changes between two frames
 CONTACT_FRAMES = 2      # frames either side of the hit where the face is kept (tilt 0)
 SMOOTH_FRAMES = 1.5     # the chosen path's 15-degree steps smoothed (Gaussian sigma, frames)
-SPEED_WEIGHT = 300.0    # per cm^2 the blade moves a frame beyond the keyed shot's fastest step
 ELBOW_STEP_DEG = 15.0   # the elbow circle's sampling
 FOLD_UNIT_CM = 2.0      # a wrist this much nearer its shoulder than ArmSolver.FOLD_CM costs as much
                         # as EXCESS_DEG (without it the lean folded arms 14 -> 25 times)
@@ -91,9 +90,7 @@ def choose_lean(solver, T, hit: int) -> tuple[np.ndarray, np.ndarray]:
     cost = (np.hypot(lean, tilt) / KEY_DEG)[None] ** 2
     extra = TURN_WEIGHT * np.arccos(np.clip((np.einsum("aij,bij->ab", turns, turns) - 1.0) / 2.0, -1.0, 1.0)) ** 2
     # the blade never faster than the keyed shot's own peak: the defences stay slow
-    blade = T["grip"][:, None] + np.einsum("fij,sjk,k->fsi", T["bat_rot"], turns, solver.bat_from_grip)
-    peak = np.linalg.norm(np.diff(blade[:, len(turns) // 2], axis=0), axis=-1).max()
-    extra = extra + step_charge(blade, np.full(F - 1, peak), SPEED_WEIGHT)
+    extra = extra + speed_charge(T["grip"], T["bat_rot"], solver.bat_from_grip, turns, len(turns) // 2, at_peak=True)
     cost = cost + arm_costs(solver, T, turns, g_rot, g_pos)
     contact = np.abs(np.arange(F) - hit) <= CONTACT_FRAMES
     cost[np.ix_(contact, tilt != 0.0)] = np.inf

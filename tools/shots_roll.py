@@ -59,14 +59,19 @@ def choose_roll(poses, arms, g_rot, g_pos, T, pref):
     return ROLLS[viterbi(costs, np.radians(ROLLS), weight=25.0, extra=extra)]
 
 
-def speed_charge(grip, bat_rot, bat_from_grip):
-    """Transition charges ``(F-1, K, K)``: the Bat joint lies off the bat's axis, so a roll
-    moves the blade; each cm it moves beyond its keyed step between two frames is charged
-    (the defences stay slow, the stance still)."""
-    turns = rot_axis(2, ROLLS)                                                   # (K, 3, 3)
+def speed_charge(grip, bat_rot, bat_from_grip, turns=None, keyed=None, at_peak=False):
+    """Transition charges ``(F-1, K, K)`` for the bat turned by each of ``turns`` ``(K, 3, 3)``
+    (in the bat's frame, about its grip; default the rolls, ROLLS): the Bat joint lies off the
+    turn's axis, so a turn moves the blade; each cm it moves between two frames beyond the keyed
+    turn's (index ``keyed``) step there, or with ``at_peak`` beyond that turn's fastest step in
+    the shot, is charged SPEED_WEIGHT per cm^2 (the defences stay slow, the stance still). The
+    roll pass, the planning lean (tools/shots_lean) and the top hand's leans (tools/shots_grips)
+    all charge the blade so."""
+    if turns is None:
+        turns, keyed = rot_axis(2, ROLLS), int(np.argmin(np.abs(ROLLS)))
     bat = grip[:, None] + np.einsum("fij,kjl,l->fki", bat_rot, turns, bat_from_grip)  # (F, K, 3)
-    keyed = np.linalg.norm(np.diff(bat[:, np.argmin(np.abs(ROLLS))], axis=0), axis=-1)
-    return step_charge(bat, keyed, SPEED_WEIGHT)
+    steps = np.linalg.norm(np.diff(bat[:, keyed], axis=0), axis=-1)
+    return step_charge(bat, np.full_like(steps, steps.max()) if at_peak else steps, SPEED_WEIGHT)
 
 
 def flip_charge(bat_rot, weight: float = FLIP_WEIGHT):
