@@ -54,6 +54,14 @@ def score(fig: dict) -> float:
 def measure(name: str, keyed, rig) -> dict:
     """Build shot ``name`` from ``keyed`` (keys, description) and read what the search weighs."""
     _, clip, hit, _, info = make_shots.build(name, rig, keyed=keyed)
+    return figures(name, rig, clip, hit, info)
+
+
+def figures(name: str, rig, clip, hit: int, info: dict) -> dict:
+    """What the searches weigh in a built shot (make_shots.build's clip, hit frame and info):
+    shots_check.arm_figures, the face's largest turn a frame outside the contact, the jerk (the
+    bat's largest acceleration outside the swing less the swing's: > 0 is a jerk), the clamp,
+    the unfold, the hit's problems and azimuth, and the ``score``."""
     shot = Shot(name, f"{name}.bvh", hit, "", rig.skeleton, clip, rig.bat_joint)
     g_rot, g_pos = shot.fk
     fig = chk.arm_figures(rig, g_rot, g_pos)

@@ -26,9 +26,13 @@ up the handle.
 A grip's optional keys: ``stance``, ``rest`` and ``shots`` (re-keys), ``lean_pass`` (bool),
 ``elbow_weight`` (tools/shots_arms.ArmSolver.ELBOW_WEIGHT), ``top_leans`` (degrees about the face
 normal the top arm's pass may lean the bat: tools/shots_grips.TopHand),
-``shoulder_contact_frames`` (ArmSolver.CONTACT_FRAMES), ``flip_weight`` (tools/shots_roll.FLIP_WEIGHT).
+``shoulder_contact_frames`` (ArmSolver.CONTACT_FRAMES), ``flip_weight`` (tools/shots_roll.FLIP_WEIGHT),
+``bat_keys`` (a JSON file beside this module: the bat keys re-fitted for the grip, tools/refit_keys).
 """
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import numpy as np
 
@@ -62,6 +66,9 @@ GRIPS = {
                    # the adaptation's face-keeping solve starts from those arms), and its roll pass
                    # for a face turned faster than FLIP_DEG ten times harder (tools/shots_roll)
                    "shoulder_contact_frames": 0, "flip_weight": 1e6,
+                   # the bat keys away from the swing re-fitted to where these passes held the bat
+                   # (tools/refit_keys)
+                   "bat_keys": "anatomical_bat_keys.json",
                    "shots": {
                        "back_foot_defence": [(-0.11, 0.11, "lean", 20)],
                        "cover_drive": [(0.579, 0.581, "lean", 20), (-0.361, -0.359, "face", 20)],
@@ -91,6 +98,30 @@ def reshape(name: str, keys: list, grip: dict) -> list:
                 n = unit(n - d * (n @ d))
                 k = {**k, "bat_d": turn(n, deg, d)} if what == "lean" else {**k, "bat_n": turn(d, deg, n)}
         out.append((t, k))
+    return out
+
+
+def bat_keys(name: str, grip: dict) -> list:
+    """Shot ``name``'s bat keys re-fitted for the grip (its ``bat_keys``: a JSON file beside this
+    module, written by tools/refit_keys): ``[(t, bat_d, bat_n)]``, or none."""
+    if "bat_keys" not in grip:
+        return []
+    entries = json.loads((Path(__file__).parent / grip["bat_keys"]).read_text()).get(name, [])
+    return [(float(t), np.asarray(d, float), np.asarray(n, float)) for t, d, n in entries]
+
+
+def refit(keys: list, fitted: list) -> list:
+    """A shot's keys with the bat's axis and face at each of ``fitted``'s times ``[(t, bat_d,
+    bat_n)]`` (tools/refit_keys) in place of the keyed ones (a face keyed by the forearm's way
+    included); the grip point, or the hit, stays as keyed. Raises where a time holds no bat key."""
+    out = list(keys)
+    for t, d, n in fitted:
+        i = [j for j, (tk, k) in enumerate(out) if abs(tk - t) < 1e-4 and "bat_d" in k]
+        if len(i) != 1:
+            raise ValueError(f"re-fitted bat key at t={t}: the shot has no bat key there")
+        tk, k = out[i[0]]
+        k = {c: v for c, v in k.items() if c not in ("bat_auto", "bat_x")}
+        out[i[0]] = (tk, {**k, "bat_d": unit(d), "bat_n": unit(n)})
     return out
 
 

@@ -27,7 +27,7 @@ from engine.rig import assets_dir, default_rig, rig_from_dict
 from engine.skeleton import Clip, clip_fk
 
 from . import shots_check as chk
-from .grips import GRIPS, grip_of, regrip, reshape
+from .grips import GRIPS, bat_keys, grip_of, refit, regrip, reshape
 from .make_rig import rig as rig_dict
 from .shots_defs import REST, SHOTS, STANCE
 from .shots_ik import PoseSolver, fit_torso, shoulder_positions
@@ -97,11 +97,12 @@ def shared_reach(solver, d_min: float = 27.0, d_max: float = 48.0) -> None:
                                  f"outside [{d_min}, {d_max}]")
 
 
-def build(name: str, rig=None, noise: bool = True, keyed=None):
+def build(name: str, rig=None, noise: bool = True, keyed=None, fitted=None):
     """(skeleton, clip, hit_frame, description, info) for one shot; ``keyed``: its
-    (keys, description) in place of ``SHOTS[name]()``."""
+    (keys, description) in place of ``SHOTS[name]()``; ``fitted``: its re-fitted bat keys
+    (tools/grips.refit) in place of the grip's."""
     rig = rig or default_rig()
-    solver, T, n_pre, description, info = planned(name, rig, noise, keyed)
+    solver, T, n_pre, description, info = planned(name, rig, noise, keyed, fitted)
     root, local, solved = solver.solve(T)
     info.update(solved)
     clip, clamped = into_limits(rig, Clip(root, local, FPS))
@@ -109,12 +110,13 @@ def build(name: str, rig=None, noise: bool = True, keyed=None):
     return rig.skeleton, clip, n_pre, description, {"clamped_deg": clamped, **info}
 
 
-def planned(name: str, rig, noise: bool = True, keyed=None):
+def planned(name: str, rig, noise: bool = True, keyed=None, fitted=None):
     """What ``build`` hands the pose solver: (the PoseSolver, its world targets ``T`` with
     the bat's ``roll_weight``, the hit frame, the description, info: ``tracks``, ``unfold_cm``)."""
     keys, description = keyed or SHOTS[name]()
     grip = grip_of(rig)
     keys = reshape(name, regrip(keys, grip, STANCE, REST), grip)
+    keys = refit(keys, bat_keys(name, grip) if fitted is None else fitted)
     t0, t1 = keys[0][0], keys[-1][0]
     n_pre, n_post = int(round(-t0 * FPS)), int(round(t1 * FPS))
     times = np.arange(-n_pre, n_post + 1) / FPS

@@ -30,7 +30,6 @@ from __future__ import annotations
 import numpy as np
 
 from .shots_maths import perp, turn, unit
-from .shots_keys import face_for_forearm
 
 V = lambda *a: np.array(a, float)
 FPS_KEYS = 30.0                   # the frame rate the keys near impact are placed on
@@ -128,7 +127,7 @@ def bat(grip=None, d=None, n=None, hit=None, x=None):
     if n is not None:
         k["bat_n"] = V(*n)
     elif x is not None:
-        k["bat_n"] = face_for_forearm(d, V(*x))
+        k["bat_x"] = V(*x)        # the face follows in shots_keys.resolve_bat_keys, for the rig's grip
     else:
         k["bat_auto"] = True      # forearms point from the shoulders to the hands
     if hit is not None:

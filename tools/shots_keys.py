@@ -60,17 +60,19 @@ def grip_from_hit(hit, d, n) -> np.ndarray:
     return np.asarray(hit, float) - bat_frame(np.asarray(d, float), np.asarray(n, float)) @ BAT_FROM_GRIP
 
 
-def resolve_bat_keys(keys: list, shoulders=None) -> list:
-    """Turn 'hit' and 'toe' bat keys into 'grip' keys (per key, exact), and
-    give 'bat_auto' keys the face normal that lets the forearms point from
-    the shoulders toward the hands: ``shoulders(t) -> (2, 3)``."""
+def resolve_bat_keys(keys: list, shoulders=None, forearm_in_bat: np.ndarray = FOREARM_IN_BAT) -> list:
+    """Turn 'hit' and 'toe' bat keys into 'grip' keys (per key, exact), and give 'bat_x' keys
+    the face normal that points the top forearm along their ``bat_x``, and 'bat_auto' keys
+    the one that points it from the shoulders toward the hands (``shoulders(t) -> (2, 3)``),
+    as the grip holds the bat (``forearm_in_bat``: LeftHand's X in the bat's frame)."""
     out = []
     for t, k in keys:
         k = dict(k)
+        x = k.pop("bat_x", None)
         if k.pop("bat_auto", False):
-            d = unit(np.asarray(k["bat_d"], float))
-            mid = shoulders(t).mean(0)
-            k["bat_n"] = face_for_forearm(d, np.asarray(k["grip"], float) - mid)
+            x = np.asarray(k["grip"], float) - shoulders(t).mean(0)
+        if x is not None:
+            k["bat_n"] = face_for_forearm(unit(np.asarray(k["bat_d"], float)), x, forearm_in_bat)
         if "hit" in k:
             k["grip"] = grip_from_hit(k.pop("hit"), k["bat_d"], k["bat_n"])
         if "toe" in k:
@@ -104,7 +106,10 @@ def tracks(keys: list, times: np.ndarray, solver=None) -> dict:
         b = {c: sample(keys, c, np.array([t]))[0] for c in BODY}
         return shoulder_positions(solver, b["hips_pos"], ypr(*b["hips_ypr"]), ypr(*b["chest_ypr"]))
 
-    keys = resolve_bat_keys(keys, shoulders)
+    # a face keyed by the forearm's way is the rig's grip's: the same forearm turns the bat
+    # differently in another grip
+    forearm = FOREARM_IN_BAT if solver is None else grip_frame(solver.rig)[0]
+    keys = resolve_bat_keys(keys, shoulders, forearm)
     out = {c: sample(keys, c, times) for c in VECTOR if any(c in k for _, k in keys) and c != "bat_n"}
     out["bat_n"] = sample_face(keys, times)
     return out
