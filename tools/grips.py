@@ -20,8 +20,9 @@ up the handle.
   it (``lean_pass``: tools/shots_lean), charges the elbows' pops more (``elbow_weight``), and
   its top arm's pass leans the bat again with the elbow's place (``top_leans``:
   tools/shots_grips.TopHand), charges the shoulder's ranges at the hit too and a flipping face
-  harder. Built, it is still short of the library's bounds on the face's turn, jerks and the
-  defences' speed (docs/history.md).
+  harder; and its bat keys away from the swing are re-fitted to where those passes held the bat
+  (``bat_keys``: tools/refit_keys). Built, it is within the library's bounds; not yet bundled
+  (docs/history.md: the two defences' bat still moves after the ball, and the engine's tests).
 
 A grip's optional keys: ``stance``, ``rest`` and ``shots`` (re-keys), ``lean_pass`` (bool),
 ``elbow_weight`` (tools/shots_arms.ArmSolver.ELBOW_WEIGHT), ``top_leans`` (degrees about the face

@@ -14,7 +14,7 @@ best (:func:`rank`: the library's bounds first, then face_keys.score) is kept, a
 into the grip's ``bat_keys`` file (tools/grips.bat_keys; the round of the keys as they are
 included, so a shot is never made worse).
 
-    python -m tools.refit_keys --grip anatomical [--only SHOT ...] [--rounds 3]
+    python -m tools.refit_keys --grip anatomical [--only SHOT ...] [--rounds 3] [--sigmas 1.5 3 1]
 """
 from __future__ import annotations
 
@@ -71,8 +71,9 @@ def rank(fig: dict) -> tuple:
     return misses, fig["score"]
 
 
-def search(name: str, grip_name: str, rounds: int) -> tuple[list, dict, list]:
-    """(the best round's fitted keys, its figures, every round's figures) for shot ``name``."""
+def search(name: str, grip_name: str, rounds: int, sigmas=SMOOTH_FRAMES) -> tuple[list, dict, list]:
+    """(the best round's fitted keys, its figures, every round's figures) for shot ``name``,
+    its rounds smoothing the solved bat by ``sigmas`` in turn."""
     rig = rig_from_dict(rig_dict(grip_name))
     keys = SHOTS[name]()[0]
     fitted = bat_keys(name, GRIPS[grip_name])
@@ -83,7 +84,7 @@ def search(name: str, grip_name: str, rounds: int) -> tuple[list, dict, list]:
         seen.append(fig)
         if best is None or rank(fig) < rank(best[1]):
             best = (fitted, fig)
-        fitted = fitted_keys(keys, info["bat_rot"], hit, SMOOTH_FRAMES[r % len(SMOOTH_FRAMES)])
+        fitted = fitted_keys(keys, info["bat_rot"], hit, sigmas[r % len(sigmas)])
     return best[0], best[1], seen
 
 
@@ -110,12 +111,14 @@ def main(argv=None) -> int:
     ap.add_argument("--grip", required=True, choices=sorted(g for g in GRIPS if "bat_keys" in GRIPS[g]))
     ap.add_argument("--only", nargs="+", choices=sorted(SHOTS), help="these shots (default: all)")
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--sigmas", type=float, nargs="+", default=SMOOTH_FRAMES,
+                    help="each round's smoothing (frames), in turn: a search that settled looks elsewhere")
     a = ap.parse_args(argv)
     path = Path(__file__).parent / GRIPS[a.grip]["bat_keys"]
     data = json.loads(path.read_text()) if path.exists() else {}
     names = a.only or list(SHOTS)
     with Pool(2) as pool:
-        for name, (fitted, fig, seen) in pool.imap(_search, [(n, a.grip, a.rounds) for n in names]):
+        for name, (fitted, fig, seen) in pool.imap(_search, [(n, a.grip, a.rounds, a.sigmas) for n in names]):
             for r, f in enumerate(seen):
                 print(f"{name} round {r}: {_line(f)}")
             print(f"{name} kept: {_line(fig)}", flush=True)

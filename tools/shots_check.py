@@ -140,6 +140,8 @@ DRIVES = ("straight_drive", "cover_drive", "on_drive")
 GLANCES = ("leg_glance",)    # turned off the face with the ball's pace: no swing to time
 DEFENCE_MAX_MPS = 3.5        # Stretch et al. 1998: forward defence peak 3.5 m/s
 DRIVE_PEAK_MPS = 11.8        # ... drive peak 11.8 m/s, 0.02 s before impact
+DEAD_BAT_MPS = 1.5          # a defence's bat, 1-4 frames after the ball: near still, and at most
+                            # half as fast (2-4 frames) as into it (tests/assets/test_shots)
 FEET_CM = 200.0              # a defended ball first lands within this of the hit point
 
 
@@ -163,16 +165,20 @@ def first_bounce_cm(path: np.ndarray, hit_point: np.ndarray) -> float:
 def hit_measures(rig, shot) -> dict:
     """What a source shot does at its own hit point, from engine.ballistics.shot_flight:
     contact, face_to_ball, the ball's azimuth/elevation (deg), the bat's horizontal speed at
-    impact and its peak (m/s), the peak's offset from the hit (frames, + after), and how far
+    impact and its peak, and its speed (3D) into the ball (3 frames) and after it (2-4 frames;
+    1-4 at most) (m/s), the peak's offset from the hit (frames, + after), and how far
     from the hit point the ball first lands (cm)."""
     from engine.ballistics import shot_flight
     from engine.choice import BALL_START
     g_rot, g_pos = shot.fk
     fl, _ = shot_flight(rig, shot, g_rot, g_pos, BALL_START, shot.hit_point)
     v = bat_speed_mps(rig, g_pos, shot.clip.fps)
+    v3 = np.linalg.norm(np.gradient(g_pos[:, rig.bat_joint], axis=0), axis=-1) * shot.clip.fps / 100.0
     h = shot.hit_frame
     return {"contact": fl.contact, "face_to_ball": fl.face_to_ball, "azimuth_deg": fl.azimuth_deg,
             "elevation_deg": fl.elevation_deg, "speed_mps": float(v[h]), "peak_mps": float(v.max()),
+            "into_mps": float(v3[h - 3:h].mean()), "after_mps": float(v3[h + 2:h + 5].mean()),
+            "after_max_mps": float(v3[h + 1:h + 5].max()),
             "peak_offset": int(np.argmax(v)) - h, "first_bounce_cm": first_bounce_cm(fl.path, shot.hit_point)}
 
 
@@ -187,6 +193,9 @@ def hit_problems(name: str, m: dict) -> list[str]:
     if name in DEFENCES:
         if m["peak_mps"] > DEFENCE_MAX_MPS:
             out.append(f"bat peaks at {m['peak_mps']:.1f} m/s (> {DEFENCE_MAX_MPS})")
+        if m["after_max_mps"] >= DEAD_BAT_MPS or m["into_mps"] <= 2.0 * m["after_mps"]:
+            out.append(f"the bat still moves after the ball ({m['after_max_mps']:.1f} m/s; "
+                       f"into it {m['into_mps']:.1f})")
         if m["first_bounce_cm"] > FEET_CM:
             out.append(f"ball first lands {m['first_bounce_cm']:.0f} cm away (> {FEET_CM:.0f})")
     elif name not in GLANCES:

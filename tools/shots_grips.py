@@ -75,7 +75,8 @@ class TopHand:
     LEAN_DEG = 15.0    # a lean this far costs as much as the wrist 20 deg off its preference
     STEP_WEIGHT = 5.0  # per 7.5 deg^2 the lean changes between frames
     STEP_DEG = 10.0    # and no faster than this a frame (300 deg/s)
-    END_FRAMES = 3     # the first and last frames: the shared stance and rest
+    END_FRAMES = 6     # the first and last frames: the shared stance and rest, held still (0.15 s, and
+                       # the stance's bat key; at 3, a 10 deg lean in the hold moved the blade 9 cm a frame)
     CONTACT_FRAMES = 1  # frames either side of the hit
     BOTTOM_DEG = 10.0  # a lean the bottom arm holds no nearer its limits and ranges is charged (PoseSolver)
 

@@ -283,10 +283,13 @@ def test_defences_are_slow_and_drop_the_ball_at_the_feet(hits):
 def test_the_authoring_check_finds_a_back_of_the_bat_hit():
     from tools.shots_check import hit_problems
     m = {"contact": "back", "face_to_ball": -0.8, "azimuth_deg": 170.0, "elevation_deg": 0.0,
-         "speed_mps": 4.0, "peak_mps": 9.0, "peak_offset": 11, "first_bounce_cm": 900.0}
+         "speed_mps": 4.0, "peak_mps": 9.0, "peak_offset": 11, "first_bounce_cm": 900.0,
+         "into_mps": 3.0, "after_mps": 2.0, "after_max_mps": 2.3}
     found = " ".join(hit_problems("square_cut", m))
     assert "back" in found and "azimuth" in found and "peaks +11" in found
-    assert hit_problems("forward_defence", dict(m, contact="face", face_to_ball=0.9, azimuth_deg=0.0)) != []
+    defence = dict(m, contact="face", face_to_ball=0.9, azimuth_deg=0.0, peak_mps=3.0, first_bounce_cm=50.0)
+    assert "still moves after the ball" in " ".join(hit_problems("forward_defence", defence))
+    assert hit_problems("forward_defence", dict(defence, after_mps=0.5, after_max_mps=1.0)) == []
 
 
 FOLDED_CM = 20.0            # a wrist this near its shoulder: the elbow bent past ~140 degrees
