@@ -30,13 +30,12 @@ from engine import bvh, quat
 from engine.rig import rig_from_dict
 
 from . import make_shots
-from .face_keys import FACE_TURN_MAX, figures
+from .face_keys import FACE_TURN_MAX, SWING_S, figures
 from .grips import GRIPS, bat_keys
 from .make_rig import rig as rig_dict
 from .shots_defs import SHOTS, FPS_KEYS
 from .shots_maths import gaussian_smooth
 
-SWING_S = 0.21          # keys this near the hit are the swing's (face_keys.SWING_S)
 STANCE_S = -0.80        # the bat is keyed at the stance until here in every shot
 REST_S = 0.16           # ... and at rest from this before the shot's last key
 SMOOTH_FRAMES = (1.5, 3.0, 1.0)   # the solved bat's steps smoothed (Gaussian sigma, frames),
@@ -58,7 +57,7 @@ def fitted_keys(keys: list, bat_rot: np.ndarray, hit: int, sigma: float = SMOOTH
             continue
         f = float(np.clip(hit + t * FPS_KEYS, 0, len(q) - 1))
         f0 = min(int(f), len(q) - 2)
-        m = quat.to_matrix(quat.normalize((1 - (f - f0)) * q[f0] + (f - f0) * q[f0 + 1]))
+        m = quat.to_matrix(quat.slerp(q[f0], q[f0 + 1], f - f0))
         out.append((round(float(t), 4), np.round(-m[:, 2], 4), np.round(m[:, 1], 4)))   # as written
     return out
 

@@ -168,12 +168,12 @@ def hit_measures(rig, shot) -> dict:
     impact and its peak, and its speed (3D) into the ball (3 frames) and after it (2-4 frames;
     1-4 at most) (m/s), the peak's offset from the hit (frames, + after), and how far
     from the hit point the ball first lands (cm)."""
-    from engine.ballistics import shot_flight
+    from engine.ballistics import bat_velocities, shot_flight
     from engine.choice import BALL_START
     g_rot, g_pos = shot.fk
     fl, _ = shot_flight(rig, shot, g_rot, g_pos, BALL_START, shot.hit_point)
-    v = bat_speed_mps(rig, g_pos, shot.clip.fps)
-    v3 = np.linalg.norm(np.gradient(g_pos[:, rig.bat_joint], axis=0), axis=-1) * shot.clip.fps / 100.0
+    vel = bat_velocities(g_pos, rig.bat_joint, shot.clip.fps) / 100.0
+    v, v3 = np.hypot(vel[:, 0], vel[:, 2]), np.linalg.norm(vel, axis=-1)    # horizontal (bat_speed_mps), 3D
     h = shot.hit_frame
     return {"contact": fl.contact, "face_to_ball": fl.face_to_ball, "azimuth_deg": fl.azimuth_deg,
             "elevation_deg": fl.elevation_deg, "speed_mps": float(v[h]), "peak_mps": float(v.max()),
