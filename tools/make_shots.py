@@ -33,6 +33,7 @@ from .shots_defs import REST, SHOTS, STANCE
 from .shots_ik import PoseSolver, fit_torso, shoulder_positions
 from .shots_keys import FPS, targets, tracks
 from .shots_lean import choose_lean
+from .shots_roll import HELD_WEIGHT
 
 # noise amplitude per channel (cm or degrees): a captured batsman never
 # repeats a key pose exactly; feet are left alone so planted feet stay planted
@@ -59,9 +60,9 @@ def envelope(n: int, ramp: int = 8) -> np.ndarray:
     return x
 
 
-def unfold(solver, T, times, d_min: float = 27.0, d_max: float = 48.0) -> np.ndarray:
+def unfold(solver, T, times, d_min: float = 27.0, d_max: float = 48.0, held_s: float = 0.0) -> np.ndarray:
     """Grip offsets ``(F, 3)`` keeping each wrist between ``d_min`` and ``d_max``
-    from its shoulder (full reach is 54 cm)."""
+    from its shoulder (full reach is 54 cm); none at the contact nor ``held_s`` after it."""
     sh = shoulder_positions(solver, T["hips_pos"], T["hips_rot"], T["chest_rot"])
     l_wrist, _, r_wrist, _ = solver.hand_targets(T["grip"], T["bat_rot"])
     push = np.zeros_like(l_wrist)
@@ -73,7 +74,9 @@ def unfold(solver, T, times, d_min: float = 27.0, d_max: float = 48.0) -> np.nda
     pad = np.pad(push, ((8, 8), (0, 0)), mode="edge")
     smooth = np.stack([np.convolve(pad[:, i], k, "valid") for i in range(3)], -1)
     # the stroke's contact is never moved
-    return 0.8 * smooth * (1.0 - np.exp(-0.5 * (times / 0.1) ** 2))[:, None] * envelope(len(times), 6)[:, None]
+    # (a defence's bat is held where it met the ball: tests/assets/test_shots.test_hit_frame_is_the_contact)
+    away = np.where(times > 0.0, np.maximum(0.0, times - held_s), times)
+    return 0.8 * smooth * (1.0 - np.exp(-0.5 * (away / 0.1) ** 2))[:, None] * envelope(len(times), 6)[:, None]
 
 
 def shared_reach(solver, d_min: float = 27.0, d_max: float = 48.0) -> None:
@@ -138,7 +141,7 @@ def planned(name: str, rig, noise: bool = True, keyed=None, fitted=None):
     # beyond 48 cm (of 54), carry the bat to where the arms can hold it
     keyed_grip = tr["grip"]
     for _ in range(8):
-        tr["grip"] = tr["grip"] + unfold(solver, T, times)
+        tr["grip"] = tr["grip"] + unfold(solver, T, times, held_s=grip.get("dead_bat_s", 0.0) if name in chk.DEFENCES else 0.0)
         T = targets(tr)
     info = {"tracks": tr, "unfold_cm": float(np.linalg.norm(tr["grip"] - keyed_grip, axis=-1).max())}
     # the face may turn about the bat's axis except near impact and at the
@@ -146,6 +149,8 @@ def planned(name: str, rig, noise: bool = True, keyed=None, fitted=None):
     near_hit = np.exp(-0.5 * (times / 0.06) ** 2)
     T["roll_weight"] = 0.05 + 200.0 * near_hit + 200.0 * (1.0 - envelope(len(times), 6))
     T["roll_weight"][n_pre] = np.inf          # the face meets the ball as keyed
+    if name in chk.DEFENCES:                  # ... and a defence holds it there (grips: dead_bat_s)
+        T["roll_weight"][n_pre + 1:n_pre + int(round(grip.get("dead_bat_s", 0.0) * FPS)) + 1] = HELD_WEIGHT
     if grip.get("lean_pass"):
         turn, info["lean"] = choose_lean(solver, T, n_pre)
         T["bat_rot"] = T["bat_rot"] @ turn

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .shots_maths import gaussian_smooth, rot_axis
-from .shots_roll import FREE_ROLLS, FREE_WEIGHT, speed_charge
+from .shots_roll import FREE_ROLLS, FREE_WEIGHT, held_frames, speed_charge
 from .shots_viterbi import viterbi
 
 STEP_DEG = 15.0         # the states' grid: lean and tilt each -MAX_DEG..MAX_DEG
@@ -83,21 +83,31 @@ def excess(arms, ang, pre, g_rot):
 
 def choose_lean(solver, T, hit: int) -> tuple[np.ndarray, np.ndarray]:
     """The bat's turn per frame: (``(F, 3, 3)`` to right-multiply ``T["bat_rot"]`` by,
-    ``(F, 2)`` its lean and tilt in degrees)."""
+    ``(F, 2)`` its lean and tilt in degrees). Where the face is held as keyed (``T["roll_weight"]``
+    past shots_roll.HELD_WEIGHT: the hit, and a defence's bat after it) the tilt is 0, and a run of such frames
+    holds one lean: the bat stays where it met the ball."""
     lean, tilt, turns = states()
     _, g_rot, g_pos = solver.body_pose(T)
     F = len(T["grip"])
+    held = held_frames(T["roll_weight"])
+    held[hit] = True
     cost = (np.hypot(lean, tilt) / KEY_DEG)[None] ** 2
     extra = TURN_WEIGHT * np.arccos(np.clip((np.einsum("aij,bij->ab", turns, turns) - 1.0) / 2.0, -1.0, 1.0)) ** 2
     # the blade never faster than the keyed shot's own peak: the defences stay slow
     extra = extra + speed_charge(T["grip"], T["bat_rot"], solver.bat_from_grip, turns, len(turns) // 2, at_peak=True)
+    run = held[:-1] & held[1:]
+    extra[run] = np.where(np.eye(len(turns), dtype=bool), extra[run], np.inf)
     cost = cost + arm_costs(solver, T, turns, g_rot, g_pos)
-    contact = np.abs(np.arange(F) - hit) <= CONTACT_FRAMES
-    cost[np.ix_(contact, tilt != 0.0)] = np.inf
+    off = np.abs(np.arange(F)[:, None] - np.flatnonzero(held)[None]).min(1)   # frames from a held one
+    cost[np.ix_(off <= CONTACT_FRAMES, tilt != 0.0)] = np.inf
     path = viterbi(cost, np.zeros(len(turns)), weight=0.0, extra=extra)
     chosen = np.stack([lean[path], tilt[path]], -1)
     smooth = gaussian_smooth(chosen, SMOOTH_FRAMES, 5)
     # the face is kept at the contact: the tilt fades out smoothly about the hit
-    smooth[:, 1] *= 1.0 - np.exp(-0.5 * ((np.arange(F) - hit) / SMOOTH_FRAMES) ** 2)
+    smooth[:, 1] *= 1.0 - np.exp(-0.5 * (off / SMOOTH_FRAMES) ** 2)
+    inside = np.zeros(F, bool)
+    inside[1:] |= run
+    inside[:-1] |= run
+    smooth[inside] = chosen[inside]
     smooth[[0, -1]] = chosen[[0, -1]]
     return rot_axis(1, smooth[:, 0]) @ rot_axis(0, smooth[:, 1]), smooth

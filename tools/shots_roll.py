@@ -15,6 +15,14 @@ FLIP_DEG, FLIP_WEIGHT = 40.0, 1e5
 # roll weight is below FREE_WEIGHT it turns the bat freely, by about FREE_ROLLS
 FREE_ROLLS = np.arange(-60.0, 60.1, 15.0)
 FREE_WEIGHT = 1.0
+# a roll weight this high (or infinite, the hit) holds the face as keyed: a defence's bat after
+# the ball (tools/make_shots), where the planning lean and the top hand's lean hold too
+HELD_WEIGHT = 1e6
+
+
+def held_frames(roll_weight: np.ndarray) -> np.ndarray:
+    """``(F,)`` bool: the frames whose face is held as keyed (``roll_weight`` >= HELD_WEIGHT)."""
+    return np.asarray(roll_weight) >= HELD_WEIGHT
 
 
 def choose_roll(poses, arms, g_rot, g_pos, T, pref):
