@@ -158,7 +158,7 @@ def bat_joint_offset(b: dict) -> list:
     return (np.asarray(b["left_grip"], float) + along * axis + out * normal).tolist()
 
 
-def rig(grip: str = "library"):
+def rig(grip: str = "anatomical"):
     """The rig as a dict (``assets/rig.json``), its bat held with ``grip`` (tools/grips.GRIPS)."""
     g = GRIPS[grip]
     axis, normal = top_hand(g)

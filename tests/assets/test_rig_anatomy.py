@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 
 from engine import quat
-from engine.library import load_library
 
 TOL = 0.5
 
@@ -40,12 +39,6 @@ ANATOMY = [
     ("humeral internal rotation (ISB axial, held by the solvers)", 70.0, "AAOS", lambda r: r.humerus["range"][1]),
     ("humeral external rotation (ISB axial, held by the solvers)", 90.0, "AAOS", lambda r: -r.humerus["range"][0]),
 ]
-# Still wider than documented, with what the bundled shots ask for (see tools/make_rig.py):
-# the rig's grips hold the bat upside down (the top hand's toe beyond the little finger), so
-# the bat's hang needs radial deviation. tools/grips' anatomical grip holds it the right way up
-# with the wrists at AAOS (test_the_anatomical_grips_rig_is_within_documented_ranges); the
-# shots' keys are not yet re-authored for it (python -m tools.grip_feasibility).
-KNOWN_WIDER = {"wrist radial deviation": ("LeftHand", "y", -1), "wrist ulnar deviation": ("LeftHand", "y", +1)}
 
 
 # The hip (UpLeg, the leg hanging along -y): +z swings the left foot out to the side, +x swings
@@ -69,8 +62,6 @@ def test_hip_limits_are_the_documented_ranges(rig, motion, documented, source, r
 
 @pytest.mark.parametrize("motion,documented,source,read", ANATOMY, ids=[a[0] for a in ANATOMY])
 def test_arm_limits_within_documented_ranges(rig, motion, documented, source, read):
-    if motion in KNOWN_WIDER:
-        pytest.xfail(f"{motion}: rig {read(rig):.0f} vs {documented:.0f} ({source}), kept for the shots")
     assert read(rig) <= documented + TOL, f"{motion}: rig allows {read(rig):.0f}, {source} documents {documented:.0f}"
 
 
@@ -91,21 +82,6 @@ def test_right_limits_mirror_the_left(rig):
         z, y, x = 0, 1, 2                                 # rig.limits' columns, "zyx"
         assert np.allclose(right[[z, y]], -left[[z, y], ::-1]), name
         assert np.allclose(right[x], left[x]), name
-
-
-def test_the_shots_still_need_what_is_kept_wider(rig):
-    """A range kept wider than documented must still be needed: once the shots are
-    re-keyed inside the documented range, narrow the limit (and this table)."""
-    from tools.shots_check import dof_euler
-    sk = rig.skeleton
-    used = {"LeftHand": []}
-    for s in load_library(rig=rig):
-        e = dof_euler(rig, s.clip.local_rotations)
-        used["LeftHand"].append(e[:, sk.index("LeftHand"), 1])
-    documented = {m: d for m, d, _, _ in ANATOMY}
-    for motion, (key, _, sign) in KNOWN_WIDER.items():
-        need = max(sign * np.concatenate(used[key]))
-        assert need > documented[motion] + TOL, f"{motion}: the shots need only {need:.0f}: narrow the limit"
 
 
 def test_the_humerus_reading_of_the_shoulder_check(rig):

@@ -1,5 +1,5 @@
-"""tools/grips: a grip is data; the bundled rig is the library grip's build, and the anatomical
-grip holds the bat the right way up with the wrists at AAOS. tools/grip_feasibility finds an
+"""tools/grips: a grip is data; the bundled rig is the anatomical grip's build: it
+holds the bat the right way up with the wrists at AAOS. tools/grip_feasibility finds an
 elbow that holds a bat wherever the arm really can, and none where the wrist cannot."""
 import json
 
@@ -19,8 +19,8 @@ from tools.shots_ik import PoseSolver, grip_frame
 THUMB, FINGERS = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0])     # in LeftHand's frame
 
 
-def test_the_bundled_rig_is_the_library_grips_build():
-    assert make_rig.rig("library") == json.loads((assets_dir() / "rig.json").read_text())
+def test_the_bundled_rig_is_the_anatomical_grips_build():
+    assert make_rig.rig("anatomical") == json.loads((assets_dir() / "rig.json").read_text())
 
 
 def test_the_library_grip_holds_the_toe_beyond_the_little_finger():
