@@ -19,8 +19,9 @@ def test_a_sheet_has_a_row_per_view_and_frames_the_hands_and_handle(rig):
             # the batsman's white fills part of every close-up ...
             assert (c.min(-1) > 200).mean() > 0.05, (r, k)
             reds.append(int(((c[..., 0] > 150) & (c[..., 1] < 80) & (c[..., 2] < 80)).sum()))
-        # ... and the handle's red grip shows from at least one side (from above the hands hide it)
-        assert max(reds) >= 20, (k, reds)
+        # ... and the handle's red grip shows from at least one side (from above the hands hide it;
+        # with the anatomical grip both hands cover most of it: 15 pixels at the forward defence's hit)
+        assert max(reds) >= 10, (k, reds)
 
 @pytest.mark.parametrize("args,says", [(["forward_defence", "{tmp}/a.png", "500"], "outside forward_defence"),
                                        (["no_such_shot", "{tmp}/a.png"], "unknown shot 'no_such_shot'"),
