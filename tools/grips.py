@@ -6,7 +6,7 @@ Hand frames are the rig's (the T-pose, palm down): X along the fingers (+X on th
 authoring's (tools/shots_ik.grip_frame): X across the blade, Y the face normal, Z from the toe
 up the handle.
 
-- ``library``: the grip the bundled shots were authored with. Both hands hold the bat upside
+- ``library``: the grip the shots were first authored with. Both hands hold the bat upside
   down (an ice-pick grip: the top hand's toe beyond the little finger, the bottom hand's thumb
   up the handle), so the bat's hang asks the wrists for 55-75 deg of deviation (AAOS: radial
   20, ulnar 30); the rig's Hand y is widened for it.
@@ -21,8 +21,8 @@ up the handle.
   its top arm's pass leans the bat again with the elbow's place (``top_leans``:
   tools/shots_grips.TopHand), charges the shoulder's ranges at the hit too and a flipping face
   harder; and its bat keys away from the swing are re-fitted to where those passes held the bat
-  (``bat_keys``: tools/refit_keys). Built, it is within the library's bounds; not yet bundled
-  (docs/history.md: the two defences' bat still moves after the ball, and the engine's tests).
+  (``bat_keys``: tools/refit_keys); a defence's or a glance's bat is held where it met the ball
+  (``dead_bat_s``). The bundled rig and shots are its build.
 
 A grip's optional keys: ``stance``, ``rest`` and ``shots`` (re-keys), ``lean_pass`` (bool),
 ``elbow_weight`` (tools/shots_arms.ArmSolver.ELBOW_WEIGHT), ``top_leans`` (degrees about the face

@@ -41,25 +41,12 @@ Anatomical ranges (DESIGN.md: a shot that needs more is re-keyed, the limit is n
   a turn about the vertical, is the femur's axial rotation only with the hip straight (with
   it flexed, as in every front leg, it swings the thigh across), so it keeps [-70, 70]; the
   shots use up to 68.
-Not yet anatomical (issue 14, see the shots' report):
-- Hand y, the wrist's radial/ulnar deviation (AAOS 20 / 30), holds [-75, 55]. Measured:
-  -y turns the left hand toward +Z, the thumb (the T-pose's palm-down hand, and the
-  batsman mesh's thumb), so -y is radial deviation on the left and +y on the right.
-  The rig holds the handle square across the palm with the toe beyond the little
-  finger, where a real top hand has the little finger at the handle's top and the
-  toe beyond the thumb and forefinger; so the bat's hang asks the wrist for radial
-  deviation (the shots use up to 75). Turning the grip round (the toe toward the
-  thumb, diagonal 40-70 deg) asks instead for 60-145 deg of ulnar deviation and
-  100-160 of forearm roll with today's key poses: the bat keys of every shot would
-  have to be re-authored for it. Measured over the whole elbow circle (2026-12-04,
-  toe 50 deg from the fingers toward the thumb, face along the back of the hand,
-  Hand y AAOS): at the straight drive's stance the elbows that keep the deviation
-  within 30 need the forearm rolled 140-180 deg, and at its hit the best needs 101
-  deg of ulnar deviation; the hands and the trunk, not only the bat, sit where the
-  upside-down grip put them. Tilting the present grip instead (toe beyond the little
-  finger, 50 deg toward the fingertips) fits the wrist to AAOS in all but the
-  follow-throughs, but the authoring's arms then lie past the shoulder's ranges
-  (library: elbow pops over 20 cm 42, horizontal 168, axial 150, folds 55).
+- Hand y, the wrist's radial/ulnar deviation: AAOS's 20 / 30 (the bundled rig's grip is
+  tools/grips' ``anatomical``). -y turns the left hand toward +Z, the thumb (the T-pose's
+  palm-down hand, and the batsman mesh's thumb), so -y is radial deviation on the left and +y
+  on the right. The ``library`` grip, which the shots were first authored with, held the bat
+  upside down and needed [-75, 55] (docs/history.md).
+Wider than anatomy, and held by the solvers instead:
 - Arm x + ArmRoll x, the humeral rotation (AAOS internal 70 / external 90), hold +-90
   each: the bat's poses in the backlifts and follow-throughs ask for up to 150-180. No box on
   the ZYX twist can be AAOS's: an arm across the chest with no axial rotation reads x = 180
@@ -67,16 +54,10 @@ Not yet anatomical (issue 14, see the shots' report):
   So the rig gives the axial range itself (``humerus``: AAOS internal 70 / external 90, read
   as ISB does), and every solver holds it after each step (engine/humerus_nb.py); the Euler
   box stays the joints' own reach.
-Both hands hold the bat upside down (measured 2026-12-04): the top hand's toe is beyond the
-little finger (``axis`` -Z), and the bottom hand's thumb points up the handle. The grips are
-data in tools/grips: ``library`` (this one, the bundled rig) and ``anatomical`` (the toe beyond
-thumb and forefinger, Hand y at AAOS; ``grip_rig``). The lost branch ``grip`` held it that
-way with re-keyed shots (the stance's bat leaning back 20 deg; the pull's, glance's and sweep's
-bat axes at the hit turned 20-40 deg about their face normals): every shot then hit with the
-face inside its region, but the arms' authoring was not re-tuned (elbow pops 45 -> 97,
-horizontal 40 -> 70, axial 25 -> 83 arm-frames; the adapted face at the offset grid's corners
-turned up to 14 deg, 4 allowed). tools/grip_feasibility counts the frames to re-key;
-docs/history.md has the anatomical grip's builds since.
+The grips are data in tools/grips: ``anatomical`` (the bundled rig: the toe beyond thumb and
+forefinger, Hand y at AAOS) and ``library`` (both hands holding the bat upside down, the top
+hand's toe beyond the little finger, Hand y widened to [-75, 55]; ``grip_rig``). The shots were
+authored with the library grip; docs/history.md has the anatomical grip's re-keys and builds.
 """
 import json
 from functools import partial
