@@ -70,8 +70,9 @@ GRIPS = {
                    # the bat keys away from the swing re-fitted to where these passes held the bat
                    # (tools/refit_keys)
                    "bat_keys": "anatomical_bat_keys.json",
-                   # a defence's grip not carried (make_shots.unfold) this long after the ball: the bat held
-                   # where it met it (the top arm at full stretch, 48-54 cm) rather than drawn back at 1.5 m/s
+                   # a defence's (or a glance's) grip not carried (make_shots.unfold) this long after the
+                   # ball: the bat held where it met it (the top arm at full stretch, 48-54 cm) rather
+                   # than drawn back at 1.5 m/s
                    "dead_bat_s": 0.14,
                    "shots": {
                        "back_foot_defence": [(-0.11, 0.13, "lean", 20)],

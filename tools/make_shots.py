@@ -140,8 +140,9 @@ def planned(name: str, rig, noise: bool = True, keyed=None, fitted=None):
     # hand comes within 27 cm of its shoulder (elbow past ~135 degrees) or
     # beyond 48 cm (of 54), carry the bat to where the arms can hold it
     keyed_grip = tr["grip"]
+    held_s = grip.get("dead_bat_s", 0.0) if name in chk.DEAD_BATS else 0.0
     for _ in range(8):
-        tr["grip"] = tr["grip"] + unfold(solver, T, times, held_s=grip.get("dead_bat_s", 0.0) if name in chk.DEFENCES else 0.0)
+        tr["grip"] = tr["grip"] + unfold(solver, T, times, held_s=held_s)
         T = targets(tr)
     info = {"tracks": tr, "unfold_cm": float(np.linalg.norm(tr["grip"] - keyed_grip, axis=-1).max())}
     # the face may turn about the bat's axis except near impact and at the
@@ -149,8 +150,8 @@ def planned(name: str, rig, noise: bool = True, keyed=None, fitted=None):
     near_hit = np.exp(-0.5 * (times / 0.06) ** 2)
     T["roll_weight"] = 0.05 + 200.0 * near_hit + 200.0 * (1.0 - envelope(len(times), 6))
     T["roll_weight"][n_pre] = np.inf          # the face meets the ball as keyed
-    if name in chk.DEFENCES:                  # ... and a defence holds it there (grips: dead_bat_s)
-        T["roll_weight"][n_pre + 1:n_pre + int(round(grip.get("dead_bat_s", 0.0) * FPS)) + 1] = HELD_WEIGHT
+    # ... and a defence or glance holds it there (grips: dead_bat_s)
+    T["roll_weight"][n_pre + 1:n_pre + int(round(held_s * FPS)) + 1] = HELD_WEIGHT
     if grip.get("lean_pass"):
         turn, info["lean"] = choose_lean(solver, T, n_pre)
         T["bat_rot"] = T["bat_rot"] @ turn

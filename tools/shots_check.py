@@ -140,8 +140,9 @@ DRIVES = ("straight_drive", "cover_drive", "on_drive")
 GLANCES = ("leg_glance",)    # turned off the face with the ball's pace: no swing to time
 DEFENCE_MAX_MPS = 3.5        # Stretch et al. 1998: forward defence peak 3.5 m/s
 DRIVE_PEAK_MPS = 11.8        # ... drive peak 11.8 m/s, 0.02 s before impact
-DEAD_BAT_MPS = 1.5          # a defence's bat, 1-4 frames after the ball: near still, and at most
-                            # half as fast (2-4 frames) as into it (tests/assets/test_shots)
+DEAD_BAT_MPS = 1.5          # a defence's or a glance's bat, 1-4 frames after the ball: near still, and
+                            # at most half as fast (2-4 frames) as into it (tests/assets/test_shots)
+DEAD_BATS = DEFENCES + GLANCES
 FEET_CM = 200.0              # a defended ball first lands within this of the hit point
 
 
@@ -190,12 +191,11 @@ def hit_problems(name: str, m: dict) -> list[str]:
     lo, hi = REGIONS[name]
     if not lo <= m["azimuth_deg"] <= hi:
         out.append(f"azimuth {m['azimuth_deg']:.1f} outside {lo:.0f}..{hi:.0f}")
+    if name in DEAD_BATS and (m["after_max_mps"] >= DEAD_BAT_MPS or m["into_mps"] <= 2.0 * m["after_mps"]):
+        out.append(f"the bat still moves after the ball ({m['after_max_mps']:.1f} m/s; into it {m['into_mps']:.1f})")
     if name in DEFENCES:
         if m["peak_mps"] > DEFENCE_MAX_MPS:
             out.append(f"bat peaks at {m['peak_mps']:.1f} m/s (> {DEFENCE_MAX_MPS})")
-        if m["after_max_mps"] >= DEAD_BAT_MPS or m["into_mps"] <= 2.0 * m["after_mps"]:
-            out.append(f"the bat still moves after the ball ({m['after_max_mps']:.1f} m/s; "
-                       f"into it {m['into_mps']:.1f})")
         if m["first_bounce_cm"] > FEET_CM:
             out.append(f"ball first lands {m['first_bounce_cm']:.0f} cm away (> {FEET_CM:.0f})")
     elif name not in GLANCES:
