@@ -467,8 +467,9 @@ def test_align_to_guide_walks_forward_and_finds_a_slowed_path(body):
 def test_a_take_whose_hit_is_at_an_end_still_meets_the_ball(rig, library):
     """A drawn take that stops at the shot's hit pose (its hit its last frame) or starts there,
     and a take of one frame, meet the ball at the hit point with the source's face: the shots'
-    rule that their ends stay FK (engine.adapt's end guard) kept the bat 55-100 cm from it with
-    the face 48 deg off."""
+    rule that their ends stay FK (engine.adapt's end guard) kept the bat where two PCs put it,
+    55-100 cm from the point with the face 48 deg off on the first shots. With the anatomical
+    grip (measured 2026-12-08) two PCs put the cover drive's bat 29 cm from it in all three."""
     shot = library["cover_drive"]
     space = pcam.fit_clip(rig, shot.clip, "body")
     guide, h = synth.source_path(space), shot.hit_frame
@@ -477,15 +478,18 @@ def test_a_take_whose_hit_is_at_an_end_still_meets_the_ball(rig, library):
         hit = synth.take_hit_frame(path, guide, h, same_timeline=False)
         assert hit in (0, len(path) - 1)
         res = cleanup.cleanup(rig, shot.skeleton, anim, shot.clip, source_hit_frame=h, hit_frame=hit)
-        assert res.bat_moved_cm > 50.0, (len(path), hit)
+        assert res.bat_moved_cm > 20.0, (len(path), hit)
         assert res.bat_error_cm < 0.01 and res.face_angle_deg < 5.0, (len(path), hit, res.summary())
 
 
 def test_meet_ball_brings_the_bat_to_the_point_with_the_source_s_face_and_leaves_the_ends_alone(rig, library):
     """engine.cleanup_hit.meet_ball on the cover drive's 2-PC take: without a point the bat joint
-    stays where it was and the face turns to within 15 deg of the source's (it was 88 deg off: the
-    edge); with the shot's hit point the bat gets there (it was 94 cm off) with the face kept; the
-    first frame is untouched either way."""
+    stays where it was and the face turns to within 20 deg of the source's; with the shot's hit
+    point the bat gets there with the face kept; the first frame is untouched either way.
+    Measured 2026-12-08 with the anatomical grip: the face 60 deg off (the edge), 18 without a
+    point (the upper arm held at its crossed-arm limit, which the take is already 10 deg past;
+    before engine.frames_nb unwrapped the start's angles as its limits' it did not turn at all),
+    0 with it; the bat 29 cm from the point. On the first shots: 88 deg, under 15, and 94 cm."""
     from engine.cleanup_hit import meet_ball, turn_between
     shot = library["cover_drive"]
     space = pcam.fit_clip(rig, shot.clip, "body")
@@ -501,10 +505,11 @@ def test_meet_ball_brings_the_bat_to_the_point_with_the_source_s_face_and_leaves
         left, error, moved = meet_ball(rig, rig.skeleton, take, src_face, h, point)
         after_rot, after_pos = clip_fk(rig.skeleton, take)
         goal = before_pos[h, bat] if point is None else point
-        assert left < 15.0 and error < 0.01 and np.linalg.norm(after_pos[h, bat] - goal) < 0.01
+        assert left < (20.0 if point is None else 5.0), point
+        assert error < 0.01 and np.linalg.norm(after_pos[h, bat] - goal) < 0.01
         assert moved == pytest.approx(np.linalg.norm(goal - before_pos[h, bat]))
         assert np.array_equal(take.local_rotations[0], anim.local_rotations[0])
-    assert moved > 60.0
+    assert moved > 20.0
     assert np.allclose(turn_between(np.array([1.0, 0, 0]), np.array([0, 1.0, 0])), [0, 0, np.pi / 2])
     assert np.allclose(turn_between(np.array([1.0, 0, 0]), np.array([1.0, 0, 0])), 0.0)
 
