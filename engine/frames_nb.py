@@ -60,6 +60,10 @@ def _left_solve(prot, ppos, ch_l, pose, handle, faces, opts, face, s, work, limi
     l_lo, l_hi, reach = limits
     widen_limits(l_lo, l_hi, src_l, ch_l.lo, ch_l.hi)
     narrow_limits(ch_l.lo, ch_l.hi, src_l, reach)     # the trunk within its reach of the start pose
+    # the start's angles unwrapped as src_l's were: the 2-PC cover drive's upper arm, 10 deg
+    # past the crossed-arm limit (-235 deg), kept +125, outside the limits taken out to -235:
+    # where the bat needed no move the face solve took no step and left the face 60 deg off
+    widen_limits(ch_l.lo, ch_l.hi, eul_l, ch_l.lo, ch_l.hi)
     err, its = _solve_chain(solver, prot, ppos, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
     n_tgt = qrot(_turn_by(face_turn, blend), n_src)
     fe = 0.0

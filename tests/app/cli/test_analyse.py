@@ -83,7 +83,8 @@ def test_synth_meets_the_ball_with_the_face_unless_asked_not_to(rig, tmp_path):
     """``hitpoint synth`` on a bundled shot brings the take's bat to the shot's hit point at the
     take's hit frame with the source's face there, and says so (the exaggerated cover drive's bat
     was 29 cm off with the source's detail, 113 with two PCs alone, over the batsman's head, and
-    met the ball with its edge); the BVH read back has the bat there. ``--no-meet`` keeps the face only, ``--free-face`` neither; an aborted take
+    met the ball with its edge; with the anatomical grip, measured 2026-12-08, 9.9 and 9.1 cm);
+    the BVH read back has the bat there. ``--no-meet`` keeps the face only, ``--free-face`` neither; an aborted take
     that leaves the path before the hit leaves the ball."""
     from engine.userlib import load_shots
     shot = find_shot(load_shots(None)[1], "cover_drive")
@@ -94,14 +95,14 @@ def test_synth_meets_the_ball_with_the_face_unless_asked_not_to(rig, tmp_path):
     info = json.loads(stdout)
     c = info["cleanup"]
     assert info["detail"] == "source" and c["hit_frame"] == shot.hit_frame
-    assert c["face_angle_deg"] < 5.0 and c["bat_error_cm"] < 0.01 and c["bat_moved_cm"] > 10.0
+    assert c["face_angle_deg"] < 5.0 and c["bat_error_cm"] < 0.01 and c["bat_moved_cm"] > 5.0
     skel, clip = conform_to_rig(rig, *bvh.read(tmp_path / "k.bvh"), "k")
     bat = clip_fk(skel, clip)[1][shot.hit_frame, rig.bat_joint]
     assert np.linalg.norm(bat - shot.hit_point) < 0.05         # BVH text rounds the angles
     code, stdout, err = run("synth", "--shot", "cover_drive", "--path", p, "--out", tmp_path / "t.bvh", "--two-pcs")
     assert code == 0, err
     info = json.loads(stdout)
-    assert info["detail"] == "none" and info["cleanup"]["bat_moved_cm"] > 50.0 and info["cleanup"]["bat_error_cm"] < 0.01
+    assert info["detail"] == "none" and info["cleanup"]["bat_moved_cm"] > 5.0 and info["cleanup"]["bat_error_cm"] < 0.01
     code, stdout, err = run("synth", "--shot", "cover_drive", "--path", p, "--out", tmp_path / "n.bvh", "--no-meet")
     assert code == 0, err
     c = json.loads(stdout)["cleanup"]
