@@ -194,9 +194,6 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     gather_chain(out[0][i], lj, loc_l)
     gather_chain(start[1][f], lj, src_l)
     eul_l[:] = kept[2][i]
-    widen_limits(l_lo, l_hi, src_l, lo[:nl], hi[:nl])
-    narrow_limits(lo[:nl], hi[:nl], src_l, reach[0])      # the trunk within its reach, or where the bat took it
-    widen_limits(lo[:nl], hi[:nl], eul_l, lo[:nl], hi[:nl])
     handle = v_at(out[4], i)
     rel_p, rel_q = v_at(rel_pos, f), q_at(rel_rot, f)
     pj = parents[lj[0]]
@@ -208,12 +205,24 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     n_face = kept[1]
     n_tgt = (n_face[i, 0, 0], n_face[i, 0, 1], n_face[i, 0, 2])
     n_last = (n_face[i, 1, 0], n_face[i, 1, 1], n_face[i, 1, 2])
-    for _try in range(2):   # the grip before the face: without it if they clash
-        pe, oe = both_arms_solve(prl, ppl, arms, (both_free, right[3]), (loc_l, loc_r, eul), (lo, hi),
-                                 (handle, (fw, n_tgt, n_last), rel_p, rel_q), tol, ori_tol, 80, TORSO_WEIGHT)
-        if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
+    fw0 = fw
+    # held (opts[7]): the trunk within its reach, or where the bat took it; where the grip is
+    # not met so (the face given up first), within each next row of it, as the bat in
+    # :func:`_left_arm` (the cover drive 30 cm off, low and forward, held within 10 deg: the
+    # right hand 14 cm off its grip at the hit within the first row, on it within the second)
+    for row in range(reach.shape[0] if opts[7] else 1):
+        widen_limits(l_lo, l_hi, src_l, lo[:nl], hi[:nl])
+        narrow_limits(lo[:nl], hi[:nl], src_l, reach[row])
+        widen_limits(lo[:nl], hi[:nl], eul_l, lo[:nl], hi[:nl])
+        fw = fw0
+        for _try in range(2):   # the grip before the face: without it if they clash
+            pe, oe = both_arms_solve(prl, ppl, arms, (both_free, right[3]), (loc_l, loc_r, eul), (lo, hi),
+                                     (handle, (fw, n_tgt, n_last), rel_p, rel_q), tol, ori_tol, 80, TORSO_WEIGHT)
+            if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
+                break
+            fw = 0.0
+        if pe <= GRIP_CM and oe <= GRIP_RAD:
             break
-        fw = 0.0
     b2 = chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos)
     if vnorm(vsub(b2, handle)) >= tol:
         # the bat gave way to the grip: put it back, then the right arm again
