@@ -194,6 +194,9 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     gather_chain(out[0][i], lj, loc_l)
     gather_chain(start[1][f], lj, src_l)
     eul_l[:] = kept[2][i]
+    widen_limits(l_lo, l_hi, src_l, lo[:nl], hi[:nl])
+    narrow_limits(lo[:nl], hi[:nl], src_l, reach[0])      # the trunk within its reach, or where the bat took it
+    widen_limits(lo[:nl], hi[:nl], eul_l, lo[:nl], hi[:nl])
     handle = v_at(out[4], i)
     rel_p, rel_q = v_at(rel_pos, f), q_at(rel_rot, f)
     pj = parents[lj[0]]
@@ -205,29 +208,23 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
     n_face = kept[1]
     n_tgt = (n_face[i, 0, 0], n_face[i, 0, 1], n_face[i, 0, 2])
     n_last = (n_face[i, 1, 0], n_face[i, 1, 1], n_face[i, 1, 2])
-    fw0 = fw
-    # held (opts[7]): the trunk within its reach, or where the bat took it; where the grip is
-    # not met so (the face given up first), within each next row of it, as the bat in
-    # :func:`_left_arm` (the cover drive 30 cm off, low and forward, held within 10 deg: the
-    # right hand 14 cm off its grip at the hit within the first row, on it within the second)
-    for row in range(reach.shape[0] if opts[7] else 1):
-        widen_limits(l_lo, l_hi, src_l, lo[:nl], hi[:nl])
-        narrow_limits(lo[:nl], hi[:nl], src_l, reach[row])
-        widen_limits(lo[:nl], hi[:nl], eul_l, lo[:nl], hi[:nl])
-        fw = fw0
-        for _try in range(2):   # the grip before the face: without it if they clash
-            pe, oe = both_arms_solve(prl, ppl, arms, (both_free, right[3]), (loc_l, loc_r, eul), (lo, hi),
-                                     (handle, (fw, n_tgt, n_last), rel_p, rel_q), tol, ori_tol, 80, TORSO_WEIGHT)
-            if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
-                break
-            fw = 0.0
-        if pe <= GRIP_CM and oe <= GRIP_RAD:
+    for _try in range(2):   # the grip before the face: without it if they clash
+        pe, oe = both_arms_solve(prl, ppl, arms, (both_free, right[3]), (loc_l, loc_r, eul), (lo, hi),
+                                 (handle, (fw, n_tgt, n_last), rel_p, rel_q), tol, ori_tol, 80, TORSO_WEIGHT)
+        if fw == 0.0 or (pe <= GRIP_CM and oe <= GRIP_RAD):
             break
+        fw = 0.0
     b2 = chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos)
     if vnorm(vsub(b2, handle)) >= tol:
         # the bat gave way to the grip: put it back, then the right arm again
         ch_l = Chain(lj, l_off, l_eoff, l_free, l_kind, lo[:nl], hi[:nl], l_w, l_hold)
         _solve_chain(solver, prl, ppl, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
+        if vnorm(vsub(chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos), handle)) >= tol:
+            # short of it from there (crawling along the held trunk's bounds: the cover drive
+            # 30 cm off, low and forward, held within 10 deg, 0.046 cm at its hit after 200
+            # sweeps): the left arm as the first pass left it, on its handle
+            gather_chain(out[0][i], lj, loc_l)
+            eul_l[:] = kept[2][i]
         chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos)
         t_pos, t_rot = grip_target(q_at(s.g_rot, nl - 1), v_at(s.g_pos, nl - 1), rel_p, rel_q)
         grip_solve(q_at(s.g_rot, rp), v_at(s.g_pos, rp), right[1], right[2], loc_r, eul_r, right[3], lo[nl:],
