@@ -344,8 +344,10 @@ def _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, wor
                 release(r_hold)
                 release(l_hold)
                 t = _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s, work, kept, True)
-                if kept[3][i] and _off_grip(out, i, rh, t):
-                    # the left arm's held pose keeps the grip out of reach: both arms free
+                if kept[3][i] and (_off_grip(out, i, rh, t) or _face_error(out, i, lhand, kept) > face0 + HELD_FACE):
+                    # the left arm's held pose keeps the grip out of reach, or turns the face
+                    # to reach it (the leg glance 30 cm to leg, low and forward: 2.9 -> 8.5
+                    # deg at the hit): both arms free
                     _put_slot(saved, out, i)
                     out[0][i] = start[0][f]
                     out[1][i] = shot[3][f]
