@@ -219,8 +219,8 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
         # the bat gave way to the grip: put it back, then the right arm again
         ch_l = Chain(lj, l_off, l_eoff, l_free, l_kind, lo[:nl], hi[:nl], l_w, l_hold)
         _solve_chain(solver, prl, ppl, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
-        if vnorm(vsub(chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos), handle)) >= tol:
-            # short of it from there (crawling along the held trunk's bounds: the cover drive
+        if opts[7] and vnorm(vsub(chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos), handle)) >= tol:
+            # held, short of it from there (crawling along the trunk's bounds: the cover drive
             # 30 cm off, low and forward, held within 10 deg, 0.046 cm at its hit after 200
             # sweeps): the left arm as the first pass left it, on its handle
             gather_chain(out[0][i], lj, loc_l)
