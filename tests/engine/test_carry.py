@@ -83,7 +83,7 @@ def test_the_lean_comes_in_over_the_frames_not_at_the_hit(rig, shots):
     alone as before 2026-12-07; alone then 15, up to 36.5; carried (held within 5 deg), 5, up to
     25.5. With the anatomical grip's shots (the wrists' deviation within AAOS's range, so the
     trunk does more of the reaching) alone 26, up to 63.5 (the back-foot defence 30 cm up);
-    carried 13, up to 47.7 there. The carried lean pops in at most 60% as many adaptations as
+    carried 11, up to 47.7 there. The carried lean pops in at most 60% as many adaptations as
     every frame alone, and less far."""
     pops = {}
     for name, (shot, ad) in shots.items():

@@ -34,7 +34,7 @@ def test_a_held_trunk_stays_in_reach_and_the_bat_and_face_still_meet_the_ball(ri
     """Over hit points moved up to 30 cm each way, held within 10 deg: the bat reaches every one
     (to the tolerance), the spine stays within 10 deg a joint of the source's on all but the
     frames where the bat could not reach so (measured: 54 of 14,481, at the grid's far corners;
-    with the anatomical grip's shots 91 of 15,066), and the ball meets the face, never the back:
+    with the anatomical grip's shots 92 of 15,066), and the ball meets the face, never the back:
     at 2 of the 207 points the edge (free: 1; the anatomical grip's: 1 of 216), the face's turn
     from the source's at the hit p90 19 deg (free: 10)."""
     past = frames = 0
