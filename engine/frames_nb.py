@@ -223,6 +223,12 @@ def _torso_helps(i, f, shot, start, left, right, opts, face, out, bufs, s, work,
         # the bat gave way to the grip: put it back, then the right arm again
         ch_l = Chain(lj, l_off, l_eoff, l_free, l_kind, lo[:nl], hi[:nl], l_w, l_hold)
         _solve_chain(solver, prl, ppl, ch_l, loc_l, eul_l, src_l, handle, tol, max_iter, damping, s)
+        if opts[7] and vnorm(vsub(chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos), handle)) >= tol:
+            # held, short of it from there (crawling along the trunk's bounds: the cover drive
+            # 30 cm off, low and forward, held within 10 deg, 0.046 cm at its hit after 200
+            # sweeps): the left arm as the first pass left it, on its handle
+            gather_chain(out[0][i], lj, loc_l)
+            eul_l[:] = kept[2][i]
         chain_fk(prl, ppl, l_off, l_eoff, loc_l, s.g_rot, s.g_pos)
         t_pos, t_rot = grip_target(q_at(s.g_rot, nl - 1), v_at(s.g_pos, nl - 1), rel_p, rel_q)
         grip_solve(q_at(s.g_rot, rp), v_at(s.g_pos, rp), right[1], right[2], loc_r, eul_r, right[3], lo[nl:],
@@ -342,8 +348,10 @@ def _hand_frames(frames, shot, start, left, right, opts, face, out, bufs, s, wor
                 release(r_hold)
                 release(l_hold)
                 t = _right_hand(i, f, target, shot, start, left, right, opts, face, out, bufs, s, work, kept, True)
-                if kept[3][i] and _off_grip(out, i, rh, t):
-                    # the left arm's held pose keeps the grip out of reach: both arms free
+                if kept[3][i] and (_off_grip(out, i, rh, t) or _face_error(out, i, lhand, kept) > face0 + HELD_FACE):
+                    # the left arm's held pose keeps the grip out of reach, or turns the face
+                    # to reach it (the leg glance 30 cm to leg, low and forward: 2.9 -> 8.5
+                    # deg at the hit): both arms free
                     _put_slot(saved, out, i)
                     out[0][i] = start[0][f]
                     out[1][i] = shot[3][f]

