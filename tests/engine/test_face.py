@@ -384,10 +384,14 @@ def test_a_requested_direction_is_met_with_the_face(rig, library, name):
         assert r.twist_deg == 0.0 and abs(r.yaw_deg) <= direction.MAX_YAW_DEG + 1e-6
     beyond = direction.aim(rig, shot, shot.hit_point, float(face.wrap_deg(lo - 40.0)))
     if lo - 40.0 > -180.0 and hi - lo < 320.0:       # a range that does not wrap round
-        # the range is sampled every 5 deg of turn (about 8 deg of azimuth); the refined
-        # answer is its nearest end, which the answer's own range reports
+        # the range is sampled every 5 deg of turn; the refined answer is its nearest end,
+        # which the answer's own range reports, at most one sample's step past the sampled
+        # end (measured 2026-12-08 with the anatomical grip: a step moves the ball 8-11.7 deg
+        # of azimuth, the largest the cover drive's; the pull's face range ends at -130.2
+        # sampled and its refined end -138.3, 8.1 past, between that sample and the edge;
+        # 8 deg a step before the grip)
         assert not beyond.reached and beyond.azimuth_deg == min(beyond.range_deg)
-        assert abs(beyond.azimuth_deg - lo) < 8.0
+        assert abs(beyond.azimuth_deg - lo) < 12.0
 
 
 def test_a_requested_elevation_is_met_by_the_face_tilt(rig, library):
