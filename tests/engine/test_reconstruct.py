@@ -60,29 +60,33 @@ def test_ccd_finish_meets_the_kept_joints(rig, shots, name):
 
 
 def test_the_reach_through_the_spine_keeps_the_other_hand(rig, shots):
-    """The cover drive's right hand out of the arm's reach from the learnt shoulder: solved
-    with the spine in the right arm's chain, the left hand is put back with the spine held,
-    so both kept hands are met, and the rebuilt body is no further from the truth. (Measured
-    with the anatomical grip's shots, leave-one-out: without the reach the cover drive's
-    right hand 5.9 cm short, the straight drive's 0.56, every other shot's met, the pull's
-    too; with it all met, the cover drive's position RMSE 14.66 -> 14.61 cm.)"""
-    sh = next(s for s in shots if s.name == "cover_drive")
-    others = [s.clip.local_rotations for s in shots if s is not sh]
-    rec = R.train_reconstructor(rig, others)
-    targets = R.kept_positions(rig, sh.fk[1])
-    with_reach = R.rebuild(rec, targets, ccd_finish=True)
-    original = R._reach_through_parent
-    try:
-        R._reach_through_parent = lambda *a, **k: None
-        without = R.rebuild(rec, targets, ccd_finish=True)
-    finally:
-        R._reach_through_parent = original
+    """A right hand out of the arm's reach from the learnt shoulder: solved with the spine in the
+    right arm's chain, the left hand is put back with the spine held, so both kept hands are met.
+    The straight drive, leave-one-out: its own right hand 0.56 cm short without the reach (the
+    anatomical grip's shots), and pushed 8 cm further from its shoulder 8.8 cm short; met with it
+    both times, the rebuilt body no further from the truth. (Which shots' hands the learnt
+    shoulder leaves short changes with the library: the pull's did, then the cover drive's.)"""
+    sh = next(s for s in shots if s.name == "straight_drive")
+    rec = R.train_reconstructor(rig, [s.clip.local_rotations for s in shots if s is not sh])
     hands = [rig.chains[c].joints[-1] for c in ("left_arm", "right_arm")]
-    miss = {k: np.linalg.norm(clip_fk(sh.skeleton, c)[1][:, hands] - sh.fk[1][:, hands], axis=-1).max(0)
-            for k, c in (("with", with_reach), ("without", without))}
-    assert miss["without"][1] > 1.0 and np.all(miss["with"] < 0.05), miss
-    rmse = {k: R.position_rmse(sh.skeleton, sh.clip, c)[1] for k, c in (("with", with_reach), ("without", without))}
-    assert rmse["with"] <= rmse["without"] + 1e-9, rmse
+    shoulder = sh.fk[1][:, rig.skeleton.index("RightArm")]
+    for push in (0.0, 8.0):
+        targets = R.kept_positions(rig, sh.fk[1])
+        out = targets[:, hands[1]] - shoulder
+        targets[:, hands[1]] += push * out / np.linalg.norm(out, axis=-1, keepdims=True)
+        with_reach = R.rebuild(rec, targets, ccd_finish=True)
+        original = R._reach_through_parent
+        try:
+            R._reach_through_parent = lambda *a, **k: None
+            without = R.rebuild(rec, targets, ccd_finish=True)
+        finally:
+            R._reach_through_parent = original
+        miss = {k: np.linalg.norm(clip_fk(sh.skeleton, c)[1][:, hands] - targets[:, hands], axis=-1).max(0)
+                for k, c in (("with", with_reach), ("without", without))}
+        assert miss["without"][1] > (0.3 if push == 0.0 else 5.0) and np.all(miss["with"] < 0.05), (push, miss)
+        if push == 0.0:
+            rmse = {k: R.position_rmse(sh.skeleton, sh.clip, c)[1] for k, c in (("with", with_reach), ("without", without))}
+            assert rmse["with"] <= rmse["without"] + 1e-9, rmse
 
 
 def test_keep_must_name_the_models_constraints(rig):
