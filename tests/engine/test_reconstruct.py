@@ -85,7 +85,8 @@ def test_the_reach_through_the_spine_keeps_the_other_hand(rig, shots):
                 for k, c in (("with", with_reach), ("without", without))}
         assert miss["without"][1] > (0.3 if push == 0.0 else 5.0) and np.all(miss["with"] < 0.05), (push, miss)
         if push == 0.0:
-            rmse = {k: R.position_rmse(sh.skeleton, sh.clip, c)[1] for k, c in (("with", with_reach), ("without", without))}
+            rmse = {k: R.position_rmse(sh.skeleton, sh.clip, c)[1]
+                    for k, c in (("with", with_reach), ("without", without))}
             assert rmse["with"] <= rmse["without"] + 1e-9, rmse
 
 
