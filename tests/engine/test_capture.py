@@ -264,7 +264,7 @@ def test_bad_input_is_one_line(tmp_path):
 
 def test_our_own_output_comes_back_with_the_hitpoint_profile(tmp_path):
     out = tmp_path / "ours.bvh"
-    r = run("adapt", "--shot", "cover_drive", "--hit", -70, 45, 215, "--out", out)
+    r = run("adapt", "--shot", "cover_drive", "--hit", -85, 36, 196, "--out", out)
     assert r.returncode == 0, r.stderr
     cap = load_capture(out, hit_frame=30)
     assert cap.profile.name == "hitpoint" and not cap.appended
