@@ -40,6 +40,14 @@ SWING_STEP = math.radians(15.0) # the search for the swing that keeps the effect
 # to 180, a swing for a hair less excess popped the back-foot defence's right elbow 51 cm
 # between two frames)
 SWING_STEPS = 2
+SWING_BISECT = 8        # halvings of the step that got inside, down to its edge (15 deg / 2^8: 0.06 deg)
+# deg of axial rotation a swing must win per deg it swings the elbow round the arm: where the
+# shoulder-bat line lies across the bone the swing barely turns the humerus, and the face
+# solve's steps turning it back ratcheted full 15 deg steps for hundredths of a degree (the
+# leg glance 16 cm to off, 19 down, 8 back: frame 55's left elbow swung 50 deg, 37 cm off
+# the source's, 36 cm further than frame 54's; the hold's 18 swings there won 0.9 to 5.5 deg
+# at 0.07 to 0.12 deg a deg)
+SWING_LEVER = 0.2
 
 
 def no_hold() -> tuple:
@@ -161,14 +169,26 @@ def _swing_about(axis, chest_inv, hum, window, side, out0):
     (shoulder -> effector, world) that brings its axial rotation inside the window, or
     failing that the one that leaves it least outside, if less than unturned (``out0``).
     ``chest_inv``: the chest's global rotation inverted; ``hum``: the roll joint's global
-    rotation. (Bisecting down to the
-    window's edge instead of stopping a step inside it left more arms past the range over
-    the shots' grids: the next step starts at the edge.)"""
+    rotation. A turn that gets inside goes only to the window's edge (bisected), and any
+    turn must win SWING_LEVER of axial rotation per radian it swings. (Bisecting to the edge
+    with no such bound left more arms past the range over the shots' grids, the next step
+    starting at the edge; with it, a swing across the bone is not worth its elbow.)"""
     best, best_out = 0.0, out0
     for i in range(2 * SWING_STEPS):
-        phi = (i // 2 + 1) * SWING_STEP * (1.0 if i % 2 == 0 else -1.0)
+        sign = 1.0 if i % 2 == 0 else -1.0
+        phi = (i // 2 + 1) * SWING_STEP * sign
         out, _ = _excess(qmul(chest_inv, qmul(axis_angle(axis, phi), hum)), side, window)
-        if out < best_out - 1e-9:
+        if out == 0.0:
+            # inside: only as far as the edge (the step before was outside), so a hair past
+            # swings a hair, not a whole step
+            a = phi - SWING_STEP * sign
+            for _ in range(SWING_BISECT):
+                m = 0.5 * (a + phi)
+                if _excess(qmul(chest_inv, qmul(axis_angle(axis, m), hum)), side, window)[0] == 0.0:
+                    phi = m
+                else:
+                    a = m
+        if out < best_out - 1e-9 and out0 - out >= SWING_LEVER * abs(phi):
             best, best_out = phi, out
             if out == 0.0:
                 break
