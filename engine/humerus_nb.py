@@ -40,14 +40,11 @@ SWING_STEP = math.radians(15.0) # the search for the swing that keeps the effect
 # to 180, a swing for a hair less excess popped the back-foot defence's right elbow 51 cm
 # between two frames)
 SWING_STEPS = 2
-SWING_BISECT = 8        # halvings of the step that got inside, down to its edge (15 deg / 2^8: 0.06 deg)
-# deg of axial rotation a swing must win per deg it swings the elbow round the arm: where the
-# shoulder-bat line lies across the bone the swing barely turns the humerus, and the face
-# solve's steps turning it back ratcheted full 15 deg steps for hundredths of a degree (the
-# leg glance 16 cm to off, 19 down, 8 back: frame 55's left elbow swung 50 deg, 37 cm off
-# the source's, 36 cm further than frame 54's; the hold's 18 swings there won 0.9 to 5.5 deg
-# at 0.07 to 0.12 deg a deg)
-SWING_LEVER = 0.2
+SWING_BISECT = 8        # halvings of a step that got inside, down to the window's edge (15 deg / 2^8)
+# (a whole step for a hair past: the face solve's Newton steps turning the humerus back out
+# a hair after each swing ratcheted 15 deg swings for hundredths of a degree, the leg glance
+# 16 cm to off, 19 down, 8 back: frame 54's left elbow swung round one way, 55's the other,
+# 36 cm further between them than the source's; to the edge, 26.5)
 
 
 def no_hold() -> tuple:
@@ -169,10 +166,8 @@ def _swing_about(axis, chest_inv, hum, window, side, out0):
     (shoulder -> effector, world) that brings its axial rotation inside the window, or
     failing that the one that leaves it least outside, if less than unturned (``out0``).
     ``chest_inv``: the chest's global rotation inverted; ``hum``: the roll joint's global
-    rotation. A turn that gets inside goes only to the window's edge (bisected), and any
-    turn must win SWING_LEVER of axial rotation per radian it swings. (Bisecting to the edge
-    with no such bound left more arms past the range over the shots' grids, the next step
-    starting at the edge; with it, a swing across the bone is not worth its elbow.)"""
+    rotation. A turn that gets inside goes only as far as the window's edge (SWING_BISECT):
+    the hold runs after every Newton step, and a whole step for a hair past adds up."""
     best, best_out = 0.0, out0
     for i in range(2 * SWING_STEPS):
         sign = 1.0 if i % 2 == 0 else -1.0
@@ -188,7 +183,7 @@ def _swing_about(axis, chest_inv, hum, window, side, out0):
                     phi = m
                 else:
                     a = m
-        if out < best_out - 1e-9 and out0 - out >= SWING_LEVER * abs(phi):
+        if out < best_out - 1e-9:
             best, best_out = phi, out
             if out == 0.0:
                 break
