@@ -92,7 +92,8 @@ def test_the_held_trunk_does_not_fold_the_back_foot_defence(rig, shots):
         turned[name] = float(quat.angle_between(a.global_rotations[:, chest], shot.fk[0][:, chest]).max())
         angle = face.face_angle_deg(a.global_rotations[h], shot.fk[0][h], rig.bat_joint, rig.bat["face_normal"])
         assert a.bat_error_cm <= 0.001 and angle < 10.0, (name, angle)
-    assert turned["alone"] > 90.0 and turned["held"] < 0.5 * turned["alone"] and turned["carried"] < turned["alone"], turned
+    assert turned["alone"] > 90.0, turned
+    assert turned["held"] < 0.5 * turned["alone"] and turned["carried"] < turned["alone"], turned
 
 
 def test_a_free_trunk_is_the_default_and_a_wide_reach_changes_nothing(rig, shots):
