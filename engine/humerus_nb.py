@@ -40,11 +40,6 @@ SWING_STEP = math.radians(15.0) # the search for the swing that keeps the effect
 # to 180, a swing for a hair less excess popped the back-foot defence's right elbow 51 cm
 # between two frames)
 SWING_STEPS = 2
-SWING_BISECT = 8        # halvings of a step that got inside, down to the window's edge (15 deg / 2^8)
-# (a whole step for a hair past: the face solve's Newton steps turning the humerus back out
-# a hair after each swing ratcheted 15 deg swings for hundredths of a degree, the leg glance
-# 16 cm to off, 19 down, 8 back: frame 54's left elbow swung round one way, 55's the other,
-# 36 cm further between them than the source's; to the edge, 26.5)
 
 
 def no_hold() -> tuple:
@@ -166,23 +161,13 @@ def _swing_about(axis, chest_inv, hum, window, side, out0):
     (shoulder -> effector, world) that brings its axial rotation inside the window, or
     failing that the one that leaves it least outside, if less than unturned (``out0``).
     ``chest_inv``: the chest's global rotation inverted; ``hum``: the roll joint's global
-    rotation. A turn that gets inside goes only as far as the window's edge (SWING_BISECT):
-    the hold runs after every Newton step, and a whole step for a hair past adds up."""
+    rotation. (Bisecting down to the
+    window's edge instead of stopping a step inside it left more arms past the range over
+    the shots' grids: the next step starts at the edge.)"""
     best, best_out = 0.0, out0
     for i in range(2 * SWING_STEPS):
-        sign = 1.0 if i % 2 == 0 else -1.0
-        phi = (i // 2 + 1) * SWING_STEP * sign
+        phi = (i // 2 + 1) * SWING_STEP * (1.0 if i % 2 == 0 else -1.0)
         out, _ = _excess(qmul(chest_inv, qmul(axis_angle(axis, phi), hum)), side, window)
-        if out == 0.0:
-            # inside: only as far as the edge (the step before was outside), so a hair past
-            # swings a hair, not a whole step
-            a = phi - SWING_STEP * sign
-            for _ in range(SWING_BISECT):
-                m = 0.5 * (a + phi)
-                if _excess(qmul(chest_inv, qmul(axis_angle(axis, m), hum)), side, window)[0] == 0.0:
-                    phi = m
-                else:
-                    a = m
         if out < best_out - 1e-9:
             best, best_out = phi, out
             if out == 0.0:
