@@ -83,10 +83,8 @@ def test_the_lean_comes_in_over_the_frames_not_at_the_hit(rig, shots):
     alone as before 2026-12-07; alone then 15, up to 36.5; carried (held within 5 deg), 5, up to
     25.5. With the anatomical grip's shots (the wrists' deviation within AAOS's range, so the
     trunk does more of the reaching) alone 26, up to 63.5 (the back-foot defence 30 cm up);
-    carried 11, up to 47.7 there; since the humerus's hold swings the arm only to its range's
-    edge (engine.humerus_nb: fewer elbows swung round the arm), carried 14 against 23, up to 48.7
-    (the leg glance 30 cm up). The carried lean pops in at most two thirds as many adaptations
-    as every frame alone, and less far."""
+    carried 11, up to 47.7 there. The carried lean pops in at most 60% as many adaptations as
+    every frame alone, and less far."""
     pops = {}
     for name, (shot, ad) in shots.items():
         for o in OFFSETS:
@@ -95,7 +93,7 @@ def test_the_lean_comes_in_over_the_frames_not_at_the_hit(rig, shots):
                 assert a.bat_error_cm < 0.01, (name, o, how)
                 pops[how, name, tuple(o)] = trunk_jump_deg(rig, ad.src_grot, a.global_rotations)
     big = {how: {k: v for k, v in pops.items() if k[0] == how and v > 20.0} for how in ("carried", "alone")}
-    assert len(big["carried"]) <= 2.0 / 3.0 * len(big["alone"]), sorted(big["carried"].items(), key=lambda kv: -kv[1])
+    assert len(big["carried"]) <= 0.6 * len(big["alone"]), sorted(big["carried"].items(), key=lambda kv: -kv[1])
     most = {how: max(v for k, v in pops.items() if k[0] == how) for how in ("carried", "alone")}
     assert most["carried"] < most["alone"], most
 

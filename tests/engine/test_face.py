@@ -312,18 +312,17 @@ def test_the_kept_face_stays_near_the_source_and_on_the_ball(kept_face_grid, dof
     and all but a corner or two no more than the 3 deg the turn with the hit point asks at 30
     cm plus 1), the ball meets the face, and the right hand keeps its grip (within 0.5 cm but
     at a corner or two the right arm cannot reach, as with the position-only solve). The
-    cells past: with the wrist locked, the anatomical grip's back-foot defence 30 cm to the
+    corners past: with the wrist locked, the anatomical grip's back-foot defence 30 cm to the
     leg side and 15 up (13.4 deg; the best any pose of the chain inside its limits and the
     humerus's range reaches, by SLSQP, 12.7 off its aim) and the cover drive 30 cm to the off
-    side, 15 down, level and 15 up (5.6, 4.5 and 4.2; by SLSQP at best 3.6, 3.9 and 4.8 off its
-    aim). Over the grid: median 1.50, p90 2.99."""
+    side and 15 down or up (5.8 and 4.1; best 3.6 and 4.8 off)."""
     from engine.adapt import AdaptSettings
     turn_max = AdaptSettings().face_turn * max(abs(x) for x in GRID_X)
     cells = [v for k, v in kept_face_grid.items() if k[0] == dof]
     angles = np.array([c[2] for c in cells])
     assert all(c[0].bat_error_cm <= 0.001 for c in cells)
     assert np.median(angles) <= 3.0 and np.percentile(angles, 90) <= turn_max + 1.0, np.sort(angles)[-8:]
-    assert np.sum(angles > turn_max + 1.0) <= 4 and angles.max() < 15.0, np.sort(angles)[-8:]
+    assert np.sum(angles > turn_max + 1.0) <= 3 and angles.max() < 15.0, np.sort(angles)[-8:]
     assert all(c[1].contact == "face" and c[1].face_to_ball > 0 for c in cells)
     grip = np.array([float(c[0].grip_error_cm.max()) for c in cells])
     assert np.sum(grip >= 0.5) <= 2 and grip.max() < 1.0      # a corner or two out of the right arm's reach
