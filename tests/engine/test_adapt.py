@@ -100,7 +100,8 @@ def test_no_elbow_swings_round_the_arm_between_two_frames(rig, library, adapters
             g = adapters[shot.name].adapt(t).global_positions[:, elbows]
             extra = np.linalg.norm(np.diff(g, axis=0), axis=-1) - src_step
             f, arm = np.unravel_index(np.argmax(extra), extra.shape)
-            where = (shot.name, tuple(float(x) for x in np.round(t - shot.hit_point, 1)), ("left", "right")[arm], int(f))
+            off = tuple(float(x) for x in np.round(t - shot.hit_point, 1))
+            where = (shot.name, off, ("left", "right")[arm], int(f))
             worst[where] = float(extra[f, arm])
     over = {k: v for k, v in worst.items() if v > ELBOW_SWING_CM}
     assert set(over) <= set(KNOWN_SWING) and all(v <= KNOWN_SWING[k] for k, v in over.items()), over
