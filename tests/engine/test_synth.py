@@ -444,8 +444,8 @@ def test_the_source_s_detail_gives_the_shot_back_on_its_own_path(rig, library, n
     along the path is the shot (every joint within 0.01 cm); by the soft nearest (the marker) within
     a few cm on most frames (the anatomical grip's forward defence 87 %: its 9 frames off lie at
     frame 6 and in the last 13, where its 2-PC path lingers by the shared stance and rest and the
-    nearest point is ambiguous). Two PCs alone were 5-11 cm off
-    on average, the cover drive's bat 94 cm at the hit."""
+    nearest point is ambiguous). Two PCs alone were 5-11 cm off on average, the cover drive's
+    bat 94 cm at the hit."""
     shot = library[name]
     space = pcam.fit_clip(rig, shot.clip, "body")
     guide = synth.source_path(space)
