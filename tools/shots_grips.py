@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .shots_maths import rot_axis
-from .shots_roll import held_frames, speed_charge
+from .shots_roll import frames_from, held_frames, speed_charge
 
 
 class BottomHand:
@@ -91,8 +91,7 @@ class TopHand:
         """``(F,)`` bool: where the lean is held at 0, from the roll pass's weights (tools/make_shots:
         infinite at the hit; shots_roll.HELD_WEIGHT where a defence's bat is held after it)."""
         F = len(roll_weight)
-        hit = np.flatnonzero(held_frames(roll_weight))
-        near = np.abs(np.arange(F)[:, None] - hit[None, :]).min(1, initial=F) <= self.CONTACT_FRAMES
+        near = frames_from(held_frames(roll_weight)) <= self.CONTACT_FRAMES
         ends = (np.arange(F) < self.END_FRAMES) | (np.arange(F) >= F - self.END_FRAMES)
         return near | ends
 

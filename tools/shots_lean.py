@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .shots_maths import gaussian_smooth, rot_axis
-from .shots_roll import FREE_ROLLS, FREE_WEIGHT, held_frames, speed_charge
+from .shots_roll import FREE_ROLLS, FREE_WEIGHT, frames_from, held_frames, speed_charge
 from .shots_viterbi import viterbi
 
 STEP_DEG = 15.0         # the states' grid: lean and tilt each -MAX_DEG..MAX_DEG
@@ -84,8 +84,8 @@ def excess(arms, ang, pre, g_rot):
 def choose_lean(solver, T, hit: int) -> tuple[np.ndarray, np.ndarray]:
     """The bat's turn per frame: (``(F, 3, 3)`` to right-multiply ``T["bat_rot"]`` by,
     ``(F, 2)`` its lean and tilt in degrees). Where the face is held as keyed (``T["roll_weight"]``
-    past shots_roll.HELD_WEIGHT: the hit, and a defence's bat after it) the tilt is 0, and a run of such frames
-    holds one lean: the bat stays where it met the ball."""
+    past shots_roll.HELD_WEIGHT: the hit, and a defence's bat after it) the tilt is 0, and a run
+    of such frames holds one lean: the bat stays where it met the ball."""
     lean, tilt, turns = states()
     _, g_rot, g_pos = solver.body_pose(T)
     F = len(T["grip"])
@@ -98,7 +98,7 @@ def choose_lean(solver, T, hit: int) -> tuple[np.ndarray, np.ndarray]:
     run = held[:-1] & held[1:]
     extra[run] = np.where(np.eye(len(turns), dtype=bool), extra[run], np.inf)
     cost = cost + arm_costs(solver, T, turns, g_rot, g_pos)
-    off = np.abs(np.arange(F)[:, None] - np.flatnonzero(held)[None]).min(1)   # frames from a held one
+    off = frames_from(held)
     cost[np.ix_(off <= CONTACT_FRAMES, tilt != 0.0)] = np.inf
     path = viterbi(cost, np.zeros(len(turns)), weight=0.0, extra=extra)
     chosen = np.stack([lean[path], tilt[path]], -1)

@@ -25,6 +25,12 @@ def held_frames(roll_weight: np.ndarray) -> np.ndarray:
     return np.asarray(roll_weight) >= HELD_WEIGHT
 
 
+def frames_from(held: np.ndarray) -> np.ndarray:
+    """``(F,)`` int: each frame's distance in frames to the nearest ``held`` one (F where none)."""
+    F = len(held)
+    return np.abs(np.arange(F)[:, None] - np.flatnonzero(held)[None, :]).min(1, initial=F)
+
+
 def choose_roll(poses, arms, g_rot, g_pos, T, pref):
     """Bat roll about its axis per frame ``(F,)`` degrees: Viterbi over the arms' best comfort
     cost, charged ``roll_weight * (roll / 20)^2``, 25 per rad^2 of roll from frame to frame, a
